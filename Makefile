@@ -1,0 +1,41 @@
+# Every target sets up .venv from nothing if needed, then runs.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+# The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
+TORCH := torch==2.13.0
+
+.PHONY: demo test test-slow bench docs lint clean
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet "$(TORCH)" || \
+		$(BIN)/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
+	$(BIN)/python -m pip install --quiet -e ".[dev,train,render]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/flatland-ma demo
+
+test: $(STAMP)
+	$(BIN)/python -m pytest
+
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -m slow
+
+bench: $(STAMP)
+	$(BIN)/flatland-ma bench
+
+# Pictures of the scenarios for the README and docs/.
+docs: $(STAMP)
+	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif
+	$(BIN)/flatland-ma record fruits_poisons_multi --steps 120 --seed 3 --out docs/images/fruits_poisons_multi.png
+
+lint: $(STAMP)
+	$(BIN)/ruff check flatland_ma tests
+	$(BIN)/ruff format --check flatland_ma tests
+
+clean:
+	rm -rf $(VENV) demo .pytest_cache

@@ -1,0 +1,109 @@
+"""Throughput of the environments, each beside the bare ``space.step`` rate of its world.
+
+The figure of merit is the ratio: how much of the env step is physics. Every rate is
+measured on one core (the ray kernel is single-threaded) with random actions drawn
+before the clock starts.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import gymnasium
+
+from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.registration import gym_id
+
+
+@dataclass
+class BenchResult:
+    label: str
+    agents: int
+    env_steps_per_s: float
+    bare_steps_per_s: float
+    """Environment-step equivalents per second of ``space.step`` alone (x substeps)."""
+
+    @property
+    def agent_steps_per_s(self) -> float:
+        return self.env_steps_per_s * self.agents
+
+    @property
+    def physics_share(self) -> float:
+        return self.env_steps_per_s / self.bare_steps_per_s
+
+
+def bench_gym(scenario: str, steps: int, seed: int = 0) -> BenchResult:
+    """Steps per second of ``gymnasium.make(<id>)`` (with Gymnasium's own wrappers)."""
+    env = gymnasium.make(gym_id(scenario))
+    env.reset(seed=seed)
+    env.action_space.seed(seed)
+    actions = [env.action_space.sample() for _ in range(steps)]
+    start = time.perf_counter()
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            env.reset()
+    rate = steps / (time.perf_counter() - start)
+    bare = bare_space_rate(env.unwrapped.parallel_env, steps)
+    env.close()
+    return BenchResult(f"gym {gym_id(scenario)}", 1, rate, bare)
+
+
+def bench_parallel(scenario: str, steps: int, seed: int = 0) -> BenchResult:
+    """Env steps per second of the PettingZoo parallel env (all agents act each step)."""
+    env = FlatlandParallelEnv(scenario)
+    env.reset(seed=seed)
+    spaces = [env.action_space(a) for a in env.possible_agents]
+    for i, space in enumerate(spaces):
+        space.seed(seed + i)
+    actions = [{a: s.sample() for a, s in zip(env.possible_agents, spaces)} for _ in range(steps)]
+    start = time.perf_counter()
+    for action in actions:
+        env.step(action)
+        if not env.agents:
+            env.reset()
+    rate = steps / (time.perf_counter() - start)
+    bare = bare_space_rate(env, steps)
+    env.close()
+    return BenchResult(f"parallel {scenario}", len(env.possible_agents), rate, bare)
+
+
+def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:
+    """Env-step equivalents per second of ``space.step`` alone, on the env's own world,
+    after a reset and a few steps so that the bodies move and touch as they do in play."""
+    env.reset(seed=1)
+    for _ in range(20):
+        env.step({a: env.action_space(a).sample() for a in env.agents})
+    world = env.episode.world
+    space, dt, substeps = world.space, world.substep_dt, world.substeps
+    start = time.perf_counter()
+    for _ in range(steps):
+        for _ in range(substeps):
+            space.step(dt)
+    return steps / (time.perf_counter() - start)
+
+
+def run(steps: int = 20_000) -> list[BenchResult]:
+    return [
+        bench_gym("fruits_poisons", steps),
+        bench_parallel("fruits_poisons_multi", steps),
+    ]
+
+
+def format_table(results: list[BenchResult]) -> str:
+    header = (
+        f"{'environment':44} {'agents':>6} {'env steps/s':>12} {'agent steps/s':>14} "
+        f"{'bare space.step/s':>18} {'env/bare':>9}"
+    )
+    lines = [header, "-" * len(header)]
+    for r in results:
+        lines.append(
+            f"{r.label:44} {r.agents:>6} {r.env_steps_per_s:>12,.0f} {r.agent_steps_per_s:>14,.0f} "
+            f"{r.bare_steps_per_s:>18,.0f} {r.physics_share:>8.0%}"
+        )
+    lines.append(
+        "bare space.step/s: environment-step equivalents (substeps x space.step) per second "
+        "on the same world."
+    )
+    return "\n".join(lines)

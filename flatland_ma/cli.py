@@ -1,0 +1,186 @@
+"""The ``flatland-ma`` command: list | validate | demo | record | play | bench."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from flatland_ma.scenario.errors import ScenarioError
+from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="flatland-ma", description=__doc__)
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    commands.add_parser("list", help="the shipped scenarios, one line each")
+
+    validate = commands.add_parser("validate", help="check scenario files")
+    validate.add_argument("files", nargs="+", help="scenario files or shipped names")
+
+    demo = commands.add_parser("demo", help="greedy and random play on fruits_poisons")
+    demo.add_argument("--episodes", type=int, default=10)
+    demo.add_argument("--out", default="demo", help="folder for the GIF and the PNG")
+
+    record = commands.add_parser(
+        "record", help="write a GIF (and a PNG of its middle frame), or only a PNG, of play"
+    )
+    record.add_argument("scenario")
+    record.add_argument("--policy", choices=["greedy", "random"], default="greedy")
+    record.add_argument("--steps", type=int, default=300)
+    record.add_argument("--every", type=int, default=2, help="keep one frame in this many")
+    record.add_argument("--seed", type=int, default=0)
+    record.add_argument(
+        "--out",
+        default=None,
+        help="a .gif, or a .png for the last frame only (default: <scenario>.gif)",
+    )
+
+    play = commands.add_parser("play", help="play with the keyboard (needs a display)")
+    play.add_argument("scenario", nargs="?", default="fruits_poisons")
+    play.add_argument("--seed", type=int, default=None)
+
+    bench = commands.add_parser("bench", help="steps per second beside bare space.step")
+    bench.add_argument("--steps", type=int, default=20_000)
+
+    args = parser.parse_args(argv)
+    return {
+        "list": _list,
+        "validate": _validate,
+        "demo": _demo,
+        "record": _record,
+        "play": _play,
+        "bench": _bench,
+    }[args.command](args)
+
+
+def _list(args) -> int:
+    from flatland_ma.registration import gym_id
+
+    for name in list_scenarios():
+        spec = load_scenario(name)
+        gym = f"  [{gym_id(name)}]" if spec.n_agents == 1 else ""
+        print(f"{name:28} {spec.n_agents} agent(s)  {spec.description}{gym}")
+    return 0
+
+
+def _validate(args) -> int:
+    failures = 0
+    for name in args.files:
+        try:
+            spec = load_scenario(name)
+        except ScenarioError as err:
+            failures += 1
+            print(f"{name}: INVALID\n{err}")
+        except ValueError as err:
+            failures += 1
+            print(f"{name}: {err}")
+        else:
+            print(
+                f"{scenario_path(name)}: ok ({spec.n_agents} agent(s), {len(spec.obstacles)} "
+                f"obstacles, {sum(i.count for i in spec.items)} items)"
+            )
+    return 1 if failures else 0
+
+
+def _demo(args) -> int:
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+    from flatland_ma.policies import GreedyForager, RandomPolicy, evaluate
+
+    env = FlatlandParallelEnv("fruits_poisons")
+    print(f"fruits_poisons: {env.spec.description}")
+    print(f"{args.episodes} episodes of {env.spec.episode.max_steps} steps per policy\n")
+    policies = {
+        "greedy (scripted)": lambda agent: GreedyForager(env.spec),
+        "random (uniform)": lambda agent: RandomPolicy(env.action_space(agent), seed=0),
+    }
+    print(f"{'policy':20} {'mean return':>12} {'std':>7} {'fruits':>7} {'poisons':>8}")
+    for label, make in policies.items():
+        scores = evaluate(env, make, args.episodes)
+        fruits = np.mean([i["agent_0"]["fruits"] for i in scores.infos])
+        poisons = np.mean([i["agent_0"]["poisons"] for i in scores.infos])
+        print(f"{label:20} {scores.mean:>12.1f} {scores.std:>7.1f} {fruits:>7.1f} {poisons:>8.1f}")
+    out = Path(args.out)
+    gif = _write_recording("fruits_poisons", "greedy", 500, 2, 0, out / "fruits_poisons.gif")
+    print(f"\nwrote {gif} and {gif.with_suffix('.png')}")
+    return 0
+
+
+def _record(args) -> int:
+    out = Path(args.out or f"{args.scenario}.gif")
+    written = _write_recording(args.scenario, args.policy, args.steps, args.every, args.seed, out)
+    print(f"wrote {written}")
+    return 0
+
+
+def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+    from flatland_ma.policies import GreedyForager, RandomPolicy
+    from flatland_ma.render.video import save_gif, save_png
+
+    env = FlatlandParallelEnv(scenario, render_mode="rgb_array")
+    observations, _ = env.reset(seed=seed)
+    if policy == "greedy":
+        agents = {a: GreedyForager(env.spec) for a in env.possible_agents}
+    else:
+        agents = {a: RandomPolicy(env.action_space(a), seed=seed) for a in env.possible_agents}
+    gif = out.suffix.lower() != ".png"
+    frames = [env.render()]
+    for t in range(steps):
+        if not env.agents:
+            break
+        actions = {a: agents[a].act(observations[a]) for a in env.agents}
+        observations, *_ = env.step(actions)
+        if gif and (t + 1) % every == 0:
+            frames.append(env.render())
+    if not gif:
+        return save_png(env.render(), out)
+    save_png(frames[len(frames) // 2], out.with_suffix(".png"))
+    return save_gif(frames, out, fps=env.metadata["render_fps"] / every)
+
+
+def _play(args) -> int:
+    import os
+
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+
+    if not os.environ.get("DISPLAY") and os.environ.get("SDL_VIDEODRIVER") != "dummy":
+        print("play needs a display (or SDL_VIDEODRIVER=dummy for a headless run)")
+    import pygame
+
+    env = FlatlandParallelEnv(args.scenario, render_mode="human")
+    if env.spec.agent.actions != "discrete":
+        print("play drives discrete bodies; this scenario is continuous")
+        return 1
+    print("arrows: up = forward, left / right = rotate; close the window to stop")
+    env.reset(seed=args.seed)
+    env.render()
+    keys = {pygame.K_UP: 0, pygame.K_LEFT: 1, pygame.K_RIGHT: 2}
+    total = 0.0
+    while env.agents and not env._renderer._window.closed_by_user:
+        pressed = pygame.key.get_pressed()
+        action = next((a for key, a in keys.items() if pressed[key]), None)
+        if action is None:
+            env.render()
+            continue
+        actions = {a: (action if a == "agent_0" else 0) for a in env.agents}
+        _, rewards, _, _, _ = env.step(actions)
+        total += rewards.get("agent_0", 0.0)
+        env.render()
+    env.close()
+    print(f"score: {total:g}")
+    return 0
+
+
+def _bench(args) -> int:
+    from flatland_ma.bench import format_table, run
+
+    print(format_table(run(args.steps)))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

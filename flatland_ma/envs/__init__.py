@@ -1,0 +1,1 @@
+"""The interfaces: PettingZoo parallel (the step loop), AEC, and Gymnasium."""

@@ -1,0 +1,62 @@
+"""The Gymnasium environment for single-agent scenarios: a thin shell over the parallel env."""
+
+from __future__ import annotations
+
+import gymnasium
+
+from flatland_ma.envs.parallel import RENDER_MODES, FlatlandParallelEnv
+
+
+class FlatlandGymEnv(gymnasium.Env):
+    """One agent of a ``FlatlandParallelEnv``; observations, actions, rewards and infos are
+    that agent's. Registered as ``flatland_ma/<Scenario>-v0`` for each single-agent
+    scenario (e.g. ``flatland_ma/FruitsPoisons-v0``)."""
+
+    metadata = {"render_modes": RENDER_MODES, "render_fps": 30}
+
+    def __init__(self, scenario="fruits_poisons", render_mode: str | None = None, **overrides):
+        self.parallel_env = FlatlandParallelEnv(scenario, render_mode=render_mode, **overrides)
+        if self.parallel_env.spec.n_agents != 1:
+            raise ValueError(
+                f"scenario {scenario!r} has {self.parallel_env.spec.n_agents} agents; "
+                "use flatland_ma.parallel_env or flatland_ma.env for several agents"
+            )
+        self.agent = self.parallel_env.possible_agents[0]
+        self.observation_space = self.parallel_env.observation_space(self.agent)
+        self.action_space = self.parallel_env.action_space(self.agent)
+        self.render_mode = render_mode
+        self._actuator = self.parallel_env._actuators[0]
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        observations, infos = self.parallel_env.reset(seed=seed, options=options)
+        self._np_random = self.parallel_env.np_random
+        self._np_random_seed = self.parallel_env._np_random_seed
+        return observations[self.agent], infos[self.agent]
+
+    def step(self, action):
+        par = self.parallel_env
+        if not par.agents:
+            raise RuntimeError("the episode is over: call reset()")
+        checked = self._actuator.check(self.agent, action)
+        _, rewards, terminated, truncated = par._advance([checked])
+        episode = par.episode
+        return (
+            episode.sensors.observation(0),
+            rewards[0],
+            terminated[0],
+            truncated,
+            episode.task.info(0),
+        )
+
+    def render(self):
+        return self.parallel_env.render()
+
+    def close(self):
+        self.parallel_env.close()
+        super().close()
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._actuator = self.parallel_env._actuators[0]
+        if self.parallel_env._np_random is not None:
+            self._np_random = self.parallel_env.np_random

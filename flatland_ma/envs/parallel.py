@@ -1,0 +1,218 @@
+"""The PettingZoo parallel environment: the one step loop every interface runs on.
+
+Agents are ``agent_0 ... agent_{n-1}``. Each observes its own first-person camera: a
+float32 array of shape ``(rays, 4)`` (RGB times intensity, and depth), and acts through
+``Discrete(3)`` (forward, rotate left, rotate right) or ``Box(-1, 1, (3,))`` (longitudinal,
+lateral, angular), as the scenario says. Rewards come from the scenario's task; reaching
+``episode.max_steps`` truncates every agent. ``infos[agent]`` holds the agent's episode
+counters: ``score`` and one count per item group (e.g. ``fruits``, ``poisons``).
+
+Pickling keeps the scenario, the generator state at the last reset and the actions taken
+since; unpickling rebuilds the episode and replays them, so a copy continues exactly as
+the original would (pymunk's own pickles lose cached contact impulses and drift).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+from gymnasium.utils import seeding
+from pettingzoo import ParallelEnv
+
+from flatland_ma.agents.actuators import Actuator
+from flatland_ma.scenario.builder import Episode, build
+from flatland_ma.scenario.loader import load_scenario
+from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.sensors.camera import Camera
+
+RENDER_MODES = ["human", "rgb_array"]
+
+
+class FlatlandParallelEnv(ParallelEnv):
+    metadata = {
+        "name": "flatland_ma_v0",
+        "render_modes": RENDER_MODES,
+        "render_fps": 30,
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        scenario: str | Path | ScenarioSpec = "fruits_poisons",
+        render_mode: str | None = None,
+        **overrides,
+    ):
+        if isinstance(scenario, ScenarioSpec):
+            if overrides:
+                raise TypeError("overrides apply to scenario names or files, not to a spec")
+            spec = scenario
+        else:
+            spec = load_scenario(scenario, **overrides)
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(f"render_mode {render_mode!r} is not one of {RENDER_MODES}")
+        self.spec = spec
+        self.render_mode = render_mode
+        self.possible_agents = [f"agent_{i}" for i in range(spec.n_agents)]
+        self.agents: list[str] = []
+        self._index = {name: i for i, name in enumerate(self.possible_agents)}
+        self._actuators = [Actuator(spec.agent.actions) for _ in self.possible_agents]
+        self._cameras = [Camera(spec.agent.camera) for _ in self.possible_agents]
+        self.action_spaces = {a: act.space for a, act in zip(self.possible_agents, self._actuators)}
+        self.observation_spaces = {
+            a: cam.observation_space for a, cam in zip(self.possible_agents, self._cameras)
+        }
+        self.episode: Episode | None = None
+        self.num_steps = 0
+        self._live: list[int] = []
+        self._np_random: np.random.Generator | None = None
+        self._np_random_seed: int | None = None
+        self._reset_state: dict | None = None
+        self._log: list[list] = []
+        self._renderer = None
+
+    # -- spaces -------------------------------------------------------------------------
+
+    def observation_space(self, agent: str) -> gymnasium.Space:
+        return self.observation_spaces[agent]
+
+    def action_space(self, agent: str) -> gymnasium.Space:
+        return self.action_spaces[agent]
+
+    def action_names(self, agent: str = "agent_0") -> tuple[str, ...]:
+        """What each discrete action or each continuous dimension means."""
+        return self._actuators[self._index[agent]].names
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        if self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random()
+        return self._np_random
+
+    # -- the loop -----------------------------------------------------------------------
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is not None or self._np_random is None:
+            self._np_random, self._np_random_seed = seeding.np_random(seed)
+        self._reset_state = self._np_random.bit_generator.state
+        self._start_episode()
+        sensors, task = self.episode.sensors, self.episode.task
+        observations = {a: sensors.observation(i) for i, a in enumerate(self.possible_agents)}
+        infos = {a: task.info(i) for i, a in enumerate(self.possible_agents)}
+        return observations, infos
+
+    def step(self, actions: Mapping):
+        checked = self._check(actions)
+        live, rewards, terminated, truncated = self._advance(checked)
+        sensors, task, names = self.episode.sensors, self.episode.task, self.possible_agents
+        observations = {names[i]: sensors.observation(i) for i in live}
+        reward_d = {names[i]: rewards[i] for i in live}
+        terminated_d = {names[i]: terminated[i] for i in live}
+        truncated_d = {names[i]: truncated for i in live}
+        infos = {names[i]: task.info(i) for i in live}
+        return observations, reward_d, terminated_d, truncated_d, infos
+
+    def _start_episode(self) -> None:
+        self.episode = build(self.spec, self._np_random, self._cameras)
+        self.episode.sensors.observe()
+        self.num_steps = 0
+        self._live = list(range(len(self.possible_agents)))
+        self.agents = list(self.possible_agents)
+        self._log = []
+
+    def _check(self, actions: Mapping) -> list:
+        """Every live agent's action, validated, in agent order; nothing is changed."""
+        if not self.agents:
+            raise RuntimeError("no live agents: the episode is over, call reset()")
+        if not isinstance(actions, Mapping):
+            raise TypeError(f"actions must be a dict from agent name to action, not {actions!r}")
+        for name in actions:
+            if name not in self._index or self._index[name] not in self._live:
+                raise ValueError(
+                    f"action given for {name!r}, which is not a live agent; "
+                    f"live agents: {self.agents}"
+                )
+        checked = []
+        for i in self._live:
+            name = self.possible_agents[i]
+            if name not in actions:
+                raise ValueError(f"no action given for live agent {name!r}")
+            checked.append(self._actuators[i].check(name, actions[name]))
+        return checked
+
+    def _advance(self, checked: list) -> tuple[list[int], list[float], list[bool], bool]:
+        """Apply checked actions of the live agents, simulate one step, observe.
+
+        Returns the agents that were live for this step, everyone's rewards and
+        terminations, and whether the step limit truncated the episode.
+        """
+        episode = self.episode
+        live = self._live
+        bodies, actuators = episode.bodies, self._actuators
+        for i, action in zip(live, checked):
+            actuators[i].apply(bodies[i], action)
+        self._log.append(checked)
+        episode.world.step()
+        rewards, terminated = episode.task.evaluate(self._np_random)
+        episode.sensors.observe()
+        self.num_steps += 1
+        truncated = self.num_steps >= self.spec.episode.max_steps
+        if truncated or any(terminated[i] for i in live):
+            self._live = [i for i in live if not (truncated or terminated[i])]
+            for i in live:
+                if i not in self._live:
+                    bodies[i].command(0.0, 0.0, 0.0)
+            self.agents = [self.possible_agents[i] for i in self._live]
+        return live, rewards, terminated, truncated
+
+    # -- rendering ----------------------------------------------------------------------
+
+    def render(self):
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called without a render_mode; nothing to draw")
+            return None
+        if self.episode is None:
+            raise RuntimeError("call reset() before render()")
+        from flatland_ma.render.topdown import Renderer
+
+        if self._renderer is None:
+            self._renderer = Renderer(self.spec)
+        frame = self._renderer.frame(self)
+        if self.render_mode == "rgb_array":
+            return frame
+        self._renderer.show(frame, self.metadata["render_fps"])
+        return None
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # -- pickling -----------------------------------------------------------------------
+
+    def __getstate__(self) -> dict:
+        return {
+            "spec": self.spec,
+            "render_mode": self.render_mode,
+            "seed": self._np_random_seed,
+            "reset_state": self._reset_state,
+            "rng_state": None if self._np_random is None else self._np_random.bit_generator.state,
+            "log": self._log,
+        }
+
+    def __setstate__(self, state: dict) -> None:
+        self.__init__(state["spec"], state["render_mode"])
+        if state["rng_state"] is None:
+            return
+        self._np_random, _ = seeding.np_random(0)
+        self._np_random_seed = state["seed"]
+        if state["reset_state"] is None:
+            self._np_random.bit_generator.state = state["rng_state"]
+            return
+        self._np_random.bit_generator.state = state["reset_state"]
+        self._reset_state = state["reset_state"]
+        self._start_episode()
+        for checked in state["log"]:
+            self._advance(checked)

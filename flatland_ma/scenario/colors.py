@@ -1,0 +1,62 @@
+"""Colours in scenario files: a name, a ``"#rrggbb"`` string or ``[r, g, b]`` in 0-255.
+
+Every colour is stored as a tuple of three floats in [0, 1].
+"""
+
+from __future__ import annotations
+
+RGB = tuple[float, float, float]
+
+# A small, fixed palette so that files read naturally ("orange", "purple").
+NAMED_COLORS_255: dict[str, tuple[int, int, int]] = {
+    "black": (0, 0, 0),
+    "white": (255, 255, 255),
+    "gray": (128, 128, 128),
+    "grey": (128, 128, 128),
+    "lightgray": (200, 200, 200),
+    "darkgray": (80, 80, 80),
+    "red": (220, 30, 30),
+    "green": (30, 170, 60),
+    "lime": (120, 230, 40),
+    "blue": (40, 80, 230),
+    "navy": (20, 30, 120),
+    "cyan": (0, 200, 220),
+    "teal": (0, 128, 128),
+    "yellow": (240, 220, 30),
+    "gold": (200, 160, 20),
+    "orange": (255, 140, 0),
+    "purple": (140, 30, 170),
+    "magenta": (220, 0, 200),
+    "pink": (250, 150, 190),
+    "brown": (130, 80, 30),
+    "olive": (110, 120, 30),
+    "maroon": (120, 20, 30),
+    "beige": (225, 215, 180),
+}
+
+
+def parse_color(value: object) -> RGB:
+    """Turn a colour as written in a scenario file into three floats in [0, 1].
+
+    Raises ``ValueError`` with a message meant for the author of the file.
+    """
+    if isinstance(value, str):
+        text = value.strip().lower()
+        if text.startswith("#"):
+            digits = text[1:]
+            if len(digits) != 6 or any(c not in "0123456789abcdef" for c in digits):
+                raise ValueError(f"colour {value!r} is not of the form '#rrggbb'")
+            return tuple(int(digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
+        if text in NAMED_COLORS_255:
+            return tuple(c / 255.0 for c in NAMED_COLORS_255[text])  # type: ignore[return-value]
+        known = ", ".join(sorted(NAMED_COLORS_255))
+        raise ValueError(f"unknown colour name {value!r}; known names: {known}")
+    if isinstance(value, (list, tuple)):
+        if len(value) != 3 or not all(
+            isinstance(c, int) and not isinstance(c, bool) for c in value
+        ):
+            raise ValueError(f"colour {value!r} must be three integers [r, g, b] in 0-255")
+        if not all(0 <= c <= 255 for c in value):
+            raise ValueError(f"colour {value!r} has a component outside 0-255")
+        return tuple(c / 255.0 for c in value)  # type: ignore[return-value]
+    raise ValueError(f"colour {value!r} must be a name, '#rrggbb' or [r, g, b] with 0-255 integers")

@@ -1,0 +1,50 @@
+"""Errors about scenario files, each pointing at a file, a line and a key path."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+KeyPath = tuple  # of str keys and int list indices
+
+
+def format_path(path: KeyPath) -> str:
+    """``("obstacles", 2, "radius")`` -> ``"obstacles[2].radius"``."""
+    text = ""
+    for part in path:
+        if isinstance(part, int):
+            text += f"[{part}]"
+        else:
+            text += ("." if text else "") + str(part)
+    return text
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a scenario: where it is and what was expected."""
+
+    source: str
+    line: int | None
+    path: KeyPath
+    message: str
+
+    def __str__(self) -> str:
+        where = self.source if self.line is None else f"{self.source}:{self.line}"
+        key = format_path(self.path)
+        return f"{where}: {key}: {self.message}" if key else f"{where}: {self.message}"
+
+
+class ScenarioError(ValueError):
+    """A scenario that cannot be used; ``problems`` lists every fault found."""
+
+    def __init__(self, problems: list[Problem]):
+        self.problems = list(problems)
+        super().__init__("\n".join(str(p) for p in self.problems))
+
+
+class SpecError(ValueError):
+    """A fault found by a check that knows which key it concerns (e.g. a layout that
+    cannot be built); the loader turns it into a located ``Problem``."""
+
+    def __init__(self, path: KeyPath, message: str):
+        super().__init__(message)
+        self.path = path

@@ -1,0 +1,79 @@
+"""The physical world: one pymunk space, its entities, stepping and the contact log."""
+
+from __future__ import annotations
+
+import pymunk
+
+from flatland_ma.scenario.schema import PhysicsSpec
+from flatland_ma.world.entities import CollisionType, Entity
+
+_EVERYTHING = pymunk.ShapeFilter()
+
+
+class World:
+    """Owns the ``pymunk.Space``. Collision callbacks only record contacts; the task
+    decides what they mean."""
+
+    def __init__(self, physics: PhysicsSpec, size: tuple[float, float]):
+        self.space = pymunk.Space()
+        self.space.iterations = physics.iterations
+        self.size = size
+        self.dt = physics.dt
+        self.substeps = physics.substeps
+        self.substep_dt = physics.dt / physics.substeps
+        self.entities: list[Entity] = []
+        self.entity_of_shape: dict[pymunk.Shape, Entity] = {}
+        self.contacts: list[tuple[Entity, Entity]] = []
+        """(agent entity, item entity) pairs that began touching during the last step."""
+        self.space.on_collision(CollisionType.AGENT, CollisionType.ITEM, begin=self._on_touch)
+        self.space.on_collision(
+            CollisionType.AGENT, None, begin=self._on_agent_contact, separate=self._on_agent_release
+        )
+
+    def add(self, entity: Entity) -> Entity:
+        entity.index = len(self.entities)
+        self.entities.append(entity)
+        for shape in entity.shapes:
+            self.entity_of_shape[shape] = entity
+        if entity.body is not self.space.static_body:
+            self.space.add(entity.body)
+        self.space.add(*entity.aux_bodies, *entity.shapes, *entity.constraints)
+        return entity
+
+    def step(self) -> None:
+        """Advance one environment step: ``substeps`` pymunk steps."""
+        self.contacts.clear()
+        step, dt = self.space.step, self.substep_dt
+        for _ in range(self.substeps):
+            step(dt)
+
+    def _on_touch(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
+        agent_shape, item_shape = arbiter.shapes
+        self.contacts.append((self.entity_of_shape[agent_shape], self.entity_of_shape[item_shape]))
+
+    def _on_agent_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
+        self._count_contact(arbiter, +1)
+
+    def _on_agent_release(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
+        self._count_contact(arbiter, -1)
+
+    def _count_contact(self, arbiter: pymunk.Arbiter, change: int) -> None:
+        """Keep each agent's count of solid contacts (pymunk calls the wildcard handler
+        once for each agent of an agent-agent contact)."""
+        agent_shape, other = arbiter.shapes
+        if agent_shape.collision_type != CollisionType.AGENT:  # e.g. when a shape is removed
+            agent_shape, other = other, agent_shape
+        if not other.sensor:
+            self.entity_of_shape[agent_shape].touching += change
+
+    def is_free(self, x: float, y: float, radius: float) -> bool:
+        """True if a disc of ``radius`` at (x, y) lies in the arena and touches nothing."""
+        width, height = self.size
+        if not (radius <= x <= width - radius and radius <= y <= height - radius):
+            return False
+        return not self.space.point_query((x, y), radius, _EVERYTHING)
+
+    def move_static(self, entity: Entity, x: float, y: float) -> None:
+        """Move a static or kinematic entity (e.g. a respawned item)."""
+        entity.body.position = (x, y)
+        self.space.reindex_shapes_for_body(entity.body)

@@ -1,0 +1,99 @@
+"""Calling the ray kernel on hand-made geometry, for analytic tests."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from flatland_ma.sensors import kernel
+
+
+def box(cx, cy, w, h):
+    """Counter-clockwise corners of an axis-aligned box."""
+    return [
+        (cx - w / 2, cy - h / 2),
+        (cx + w / 2, cy - h / 2),
+        (cx + w / 2, cy + h / 2),
+        (cx - w / 2, cy + h / 2),
+    ]
+
+
+def edges(corners):
+    return [(*corners[i], *corners[(i + 1) % len(corners)]) for i in range(len(corners))]
+
+
+def cast(
+    angles,
+    eye=(0.0, 0.0, 0.0),
+    polygons=(),
+    circles=(),
+    view_range=1000.0,
+    owners=None,
+    colors=None,
+    falloff=kernel.FALLOFF_LINEAR,
+    half_fov=None,
+    poses=None,
+    polygon_bodies=None,
+    circle_bodies=None,
+    eye_body=-1,
+    eye_owner=-1,
+):
+    """Cast rays at ``angles`` (radians, relative to the eye heading).
+
+    Entities are numbered polygons first, then circles. Returns (distance, entity, image).
+    """
+    segs, seg_entity, seg_body = [], [], []
+    for e, corners in enumerate(polygons):
+        for row in edges(corners):
+            segs.append(row)
+            seg_entity.append(e)
+            seg_body.append(-1 if polygon_bodies is None else polygon_bodies[e])
+    circ, circ_entity, circ_body = [], [], []
+    for k, c in enumerate(circles):
+        circ.append(c)
+        circ_entity.append(len(polygons) + k)
+        circ_body.append(-1 if circle_bodies is None else circle_bodies[k])
+    n_ent = len(polygons) + len(circles)
+    seg_local = np.array(segs, np.float64).reshape(-1, 4)
+    circ_local = np.array(circ, np.float64).reshape(-1, 3)
+    angles = np.asarray(angles, np.float64)
+    n = len(angles)
+    image = np.zeros((n, 4), np.float32)
+    distance = np.zeros(n)
+    hit = np.zeros(n, np.int32)
+    work_s, work_c = kernel.empty_work(len(seg_local), len(circ_local))
+    if colors is None:
+        colors = [(1.0, 1.0, 1.0)] * n_ent
+    kernel.observe(
+        np.array(poses if poses is not None else np.zeros((0, 3)), np.float64).reshape(-1, 3),
+        seg_local,
+        np.array(seg_body, np.int32),
+        np.array(seg_entity, np.int32),
+        seg_local.copy(),
+        circ_local,
+        np.array(circ_body, np.int32),
+        np.array(circ_entity, np.int32),
+        circ_local.copy(),
+        np.array(owners if owners is not None else [-1] * n_ent, np.int32),
+        np.ones(n_ent, np.bool_),
+        np.array(colors, np.float32).reshape(-1, 3),
+        np.array([eye_body], np.int32),
+        np.array([eye], np.float64),
+        np.array([eye_owner], np.int32),
+        np.array([view_range], np.float64),
+        np.array([half_fov if half_fov is not None else float(np.abs(angles).max())]),
+        np.array([falloff], np.int32),
+        np.array([0, n], np.int32),
+        np.stack([np.cos(angles), np.sin(angles)], axis=1),
+        image,
+        distance,
+        hit,
+        work_s,
+        work_c,
+    )
+    return distance, hit, image
+
+
+def deg(*values):
+    return [math.radians(v) for v in values]

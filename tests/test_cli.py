@@ -1,0 +1,42 @@
+"""The flatland-ma command, through its entry point in a subprocess and in-process."""
+
+import subprocess
+import sys
+
+from flatland_ma.bench import BenchResult, bench_gym, bench_parallel, format_table
+from flatland_ma.cli import main
+
+
+def test_list_prints_every_scenario_on_one_line():
+    out = subprocess.run(
+        [sys.executable, "-m", "flatland_ma.cli", "list"],
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+    lines = out.strip().splitlines()
+    assert len(lines) == 2
+    assert lines[0].startswith("fruits_poisons ") and "flatland_ma/FruitsPoisons-v0" in lines[0]
+
+
+def test_record_writes_a_gif_and_a_png(tmp_path, capsys):
+    out = tmp_path / "clip.gif"
+    assert main(["record", "fruits_poisons_multi", "--steps", "6", "--out", str(out)]) == 0
+    assert out.exists() and out.with_suffix(".png").exists()
+
+
+def test_demo_prints_scores_for_both_policies(tmp_path, capsys):
+    assert main(["demo", "--episodes", "1", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "greedy (scripted)" in out and "random (uniform)" in out
+    assert (tmp_path / "fruits_poisons.gif").exists()
+
+
+def test_bench_measures_env_and_bare_physics():
+    results = [bench_gym("fruits_poisons", 300), bench_parallel("fruits_poisons_multi", 300)]
+    assert results[0].agents == 1 and results[1].agents == 4
+    for r in results:
+        assert r.env_steps_per_s > 0 and r.bare_steps_per_s > r.env_steps_per_s
+    table = format_table(results)
+    assert "bare space.step/s" in table and "fruits_poisons_multi" in table
+    assert BenchResult("x", 4, 10.0, 100.0).agent_steps_per_s == 40.0

@@ -1,0 +1,174 @@
+"""The ray kernel against analytic geometry."""
+
+import math
+
+import numpy as np
+import pytest
+
+from flatland_ma.sensors import kernel
+from tests.kernel_helpers import box, cast, deg
+
+WALL = box(60.0, 0.0, 20.0, 400.0)  # its near face is the line x = 50
+
+
+def test_wall_straight_ahead_and_at_an_angle():
+    angles = np.radians(np.linspace(-60, 60, 25))
+    distance, hit, _ = cast(angles, polygons=[WALL])
+    np.testing.assert_allclose(distance, 50.0 / np.cos(angles), rtol=1e-12)
+    assert (hit == 0).all()
+
+
+def test_wall_seen_from_a_rotated_and_translated_eye():
+    # Eye at (10, 30) heading 30 degrees: the ray at -30 degrees points along +x.
+    distance, _, _ = cast(deg(-30.0, 0.0), eye=(10.0, 30.0, math.radians(30)), polygons=[WALL])
+    assert distance[0] == pytest.approx(40.0, rel=1e-12)
+    assert distance[1] == pytest.approx(40.0 / math.cos(math.radians(30)), rel=1e-12)
+
+
+@pytest.mark.parametrize("angle_deg", [0.0, 3.0, -4.5, 5.5])
+def test_circle_hit_matches_the_quadratic(angle_deg):
+    cx, r = 100.0, 10.0
+    a = math.radians(angle_deg)
+    expected = cx * math.cos(a) - math.sqrt(r * r - (cx * math.sin(a)) ** 2)
+    distance, hit, _ = cast([a], circles=[(cx, 0.0, r)])
+    assert hit[0] == 0
+    assert distance[0] == pytest.approx(expected, rel=1e-12)
+
+
+def test_near_tangent_rays_hit_inside_and_miss_outside():
+    cx, r = 100.0, 10.0
+    tangent = math.asin(r / cx)
+    just_in, just_out = tangent - 1e-9, tangent + 1e-9
+    distance, hit, _ = cast([just_in, just_out, -just_in, -just_out], circles=[(cx, 0.0, r)])
+    assert list(hit) == [0, -1, 0, -1]
+    assert distance[0] == pytest.approx(math.sqrt(cx * cx - r * r), rel=1e-3)
+    assert distance[1] == 1000.0
+
+
+def test_nearest_shape_occludes_the_ones_behind():
+    circles = [(200.0, 0.0, 10.0), (100.0, 0.0, 10.0), (150.0, 0.0, 30.0)]
+    distance, hit, _ = cast([0.0], polygons=[box(300.0, 0.0, 20.0, 400.0)], circles=circles)
+    assert hit[0] == 2  # the circle at x = 100 (entities: polygon 0, circles 1, 2, 3)
+    assert distance[0] == pytest.approx(90.0)
+    # Behind the wall nothing counts; in front of it the wall is occluded.
+    distance, hit, _ = cast([0.0], polygons=[WALL], circles=[(200.0, 0.0, 10.0)])
+    assert (hit[0], distance[0]) == (0, pytest.approx(50.0))
+
+
+def test_rays_that_hit_nothing_are_black_at_full_depth():
+    distance, hit, image = cast(deg(-10, 0, 10), circles=[(0.0, 100.0, 5.0)], view_range=300.0)
+    assert list(hit) == [-1, -1, -1]
+    assert (distance == 300.0).all()
+    np.testing.assert_array_equal(image, [[0, 0, 0, 1]] * 3)
+
+
+def test_shapes_beyond_range_are_not_seen():
+    distance, hit, _ = cast([0.0], circles=[(120.0, 0.0, 10.0)], view_range=100.0)
+    assert hit[0] == -1 and distance[0] == 100.0
+    distance, hit, _ = cast([0.0], circles=[(105.0, 0.0, 10.0)], view_range=100.0)
+    assert hit[0] == 0 and distance[0] == pytest.approx(95.0)
+
+
+def test_polygons_are_seen_from_outside_only():
+    # From inside a box the rays pass through its (back-facing) edges.
+    distance, hit, _ = cast(deg(0, 90, 180), polygons=[box(0.0, 0.0, 40.0, 40.0)])
+    assert (hit == -1).all()
+    distance, hit, _ = cast([0.0], eye=(-100.0, 0.0, 0.0), polygons=[box(0.0, 0.0, 40.0, 40.0)])
+    assert distance[0] == pytest.approx(80.0)
+
+
+def test_ray_through_a_shared_vertex_does_not_leak():
+    # A diamond: the ray along +x meets the vertex (80, 0) where two edges join.
+    diamond = [(100.0, -20.0), (120.0, 0.0), (100.0, 20.0), (80.0, 0.0)]
+    distance, hit, _ = cast([0.0], polygons=[diamond])
+    assert hit[0] == 0 and distance[0] == pytest.approx(80.0)
+
+
+def test_an_eye_does_not_see_shapes_of_its_own_agent():
+    circles = [(20.0, 0.0, 5.0), (60.0, 0.0, 5.0)]
+    distance, hit, _ = cast([0.0], circles=circles, owners=[3, 4], eye_owner=3)
+    assert hit[0] == 1 and distance[0] == pytest.approx(55.0)
+    distance, hit, _ = cast([0.0], circles=circles, owners=[3, 4], eye_owner=7)
+    assert hit[0] == 0
+
+
+def test_an_eye_inside_a_circle_sees_it_at_distance_zero():
+    distance, hit, image = cast([0.0], circles=[(0.0, 0.0, 5.0)], colors=[(0.2, 0.4, 0.6)])
+    assert hit[0] == 0 and distance[0] == 0.0
+    np.testing.assert_allclose(image[0], [0.2, 0.4, 0.6, 0.0], rtol=1e-6)
+
+
+def test_colour_intensity_falls_linearly_with_distance():
+    colour = (1.0, 0.5, 0.25)
+    _, _, image = cast([0.0], polygons=[WALL], colors=[colour], view_range=200.0)
+    np.testing.assert_allclose(image[0, :3], np.array(colour) * (1 - 50 / 200), rtol=1e-6)
+    assert image[0, 3] == pytest.approx(0.25)
+    _, _, image = cast(
+        [0.0], polygons=[WALL], colors=[colour], view_range=200.0, falloff=kernel.FALLOFF_NONE
+    )
+    np.testing.assert_allclose(image[0, :3], colour, rtol=1e-6)
+
+
+def test_shapes_on_moving_bodies_follow_their_pose():
+    # A 20 x 20 box in body coordinates, its body at (100, 0) turned 45 degrees: the ray
+    # along +x meets the corner at x = 100 - 10 * sqrt(2).
+    local = box(0.0, 0.0, 20.0, 20.0)
+    distance, _, _ = cast(
+        [0.0], polygons=[local], poses=[(100.0, 0.0, math.pi / 4)], polygon_bodies=[0]
+    )
+    assert distance[0] == pytest.approx(100.0 - 10.0 * math.sqrt(2.0))
+    # A circle offset (10, 0) on a body at (50, 50) turned 90 degrees sits at (50, 60).
+    distance, _, _ = cast(
+        [math.pi / 2],
+        eye=(50.0, 0.0, 0.0),
+        circles=[(10.0, 0.0, 5.0)],
+        poses=[(50.0, 50.0, math.pi / 2)],
+        circle_bodies=[0],
+    )
+    assert distance[0] == pytest.approx(55.0)
+
+
+def test_an_eye_on_a_body_moves_and_turns_with_it():
+    distance, _, _ = cast(
+        [0.0], eye=(0.0, 0.0, 0.0), polygons=[WALL], poses=[(20.0, 0.0, 0.0)], eye_body=0
+    )
+    assert distance[0] == pytest.approx(30.0)
+    distance, hit, _ = cast(
+        [0.0], eye=(0.0, 0.0, math.pi), polygons=[WALL], poses=[(20.0, 0.0, math.pi)], eye_body=0
+    )
+    assert distance[0] == pytest.approx(30.0) and hit[0] == 0  # turned twice by pi
+
+
+def test_field_of_view_culling_keeps_long_walls_whose_middle_is_out_of_view():
+    # A long wall across the view whose midpoint lies far to the left, outside a narrow FOV.
+    wall = [(50.0, -10.0), (60.0, -10.0), (60.0, 2000.0), (50.0, 2000.0)]
+    distance, hit, _ = cast(
+        deg(-2, 0, 2), polygons=[wall], half_fov=math.radians(2), view_range=5000.0
+    )
+    assert (hit == 0).all()
+    np.testing.assert_allclose(distance, 50.0 / np.cos(np.radians([-2, 0, 2])))
+
+
+def test_culling_agrees_with_brute_force_on_random_scenes():
+    rng = np.random.default_rng(0)
+    for _ in range(30):
+        circles = [(*rng.uniform(-300, 300, 2), rng.uniform(2, 30)) for _ in range(15)]
+        polys = [box(*rng.uniform(-300, 300, 2), *rng.uniform(5, 80, 2)) for _ in range(8)]
+        heading = rng.uniform(-math.pi, math.pi)
+        angles = np.radians(np.linspace(-50, 50, 41))
+        eye = (0.0, 0.0, heading)
+        distance, hit, _ = cast(angles, eye=eye, polygons=polys, circles=circles, view_range=250.0)
+        # Brute force: the nearest hit over every shape, no culling.
+        for i, a in enumerate(angles):
+            best, who = 250.0, -1
+            for e, p in enumerate(polys):
+                d, h, _ = cast([a], eye=eye, polygons=[p], view_range=250.0, half_fov=math.pi)
+                if h[0] >= 0 and d[0] < best:
+                    best, who = d[0], e
+            for k, c in enumerate(circles):
+                d, h, _ = cast([a], eye=eye, circles=[c], view_range=250.0, half_fov=math.pi)
+                if h[0] >= 0 and d[0] < best:
+                    best, who = d[0], len(polys) + k
+            assert distance[i] == pytest.approx(best, abs=1e-9)
+            if who >= 0:
+                assert hit[i] == who or distance[i] == pytest.approx(best)

@@ -1,0 +1,34 @@
+"""The calibration of the paper's task: random play averages near 0; the shipped greedy
+policy averages at least 200 over 20 episodes."""
+
+import flatland_ma
+from flatland_ma.policies import GreedyForager, RandomPolicy, evaluate
+
+
+def test_greedy_forager_scores_at_least_200_on_fruits_poisons():
+    env = flatland_ma.parallel_env("fruits_poisons")
+    scores = evaluate(env, lambda agent: GreedyForager(env.spec), episodes=20)
+    assert scores.mean >= 200.0, scores.returns
+    poisons = sum(info["agent_0"]["poisons"] for info in scores.infos)
+    fruits = sum(info["agent_0"]["fruits"] for info in scores.infos)
+    assert poisons < 0.1 * fruits
+
+
+def test_uniform_random_play_averages_near_zero():
+    env = flatland_ma.parallel_env("fruits_poisons")
+    scores = evaluate(env, lambda agent: RandomPolicy(env.action_space(agent), seed=1), episodes=20)
+    assert abs(scores.mean) < 15.0, scores.returns
+    assert scores.std > 0.0  # it does eat things, of both kinds
+
+
+def test_greedy_foragers_share_the_multi_agent_room():
+    env = flatland_ma.parallel_env("fruits_poisons_multi")
+    scores = evaluate(env, lambda agent: GreedyForager(env.spec), episodes=3)
+    per_agent = [info[a]["score"] for info in scores.infos for a in info]
+    assert min(per_agent) > 0 and scores.mean > 50.0
+
+
+def test_greedy_forager_drives_continuous_bodies():
+    env = flatland_ma.parallel_env("fruits_poisons", agent={"actions": "continuous"})
+    scores = evaluate(env, lambda agent: GreedyForager(env.spec), episodes=3)
+    assert scores.mean > 100.0
