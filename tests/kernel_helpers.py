@@ -38,6 +38,8 @@ def cast(
     circle_bodies=None,
     eye_body=-1,
     eye_owner=-1,
+    grid=True,
+    cells=64,
 ):
     """Cast rays at ``angles`` (radians, relative to the eye heading).
 
@@ -65,24 +67,35 @@ def cast(
     work_s, work_c = kernel.empty_work(len(seg_local), len(circ_local))
     if colors is None:
         colors = [(1.0, 1.0, 1.0)] * n_ent
+    colors = np.array(colors, np.float32).reshape(-1, 3)
+    # Shapes on no body are fixed: binned in the grid unless ``grid=False``.
+    seg_fixed = (np.array(seg_body) < 0) & grid if len(seg_body) else np.zeros(0, bool)
+    circ_fixed = (np.array(circ_body) < 0) & grid if len(circ_body) else np.zeros(0, bool)
+    binned = kernel.bin_fixed_shapes(seg_local, seg_fixed, circ_local, circ_fixed, cells)
     kernel.observe(
         np.array(poses if poses is not None else np.zeros((0, 3)), np.float64).reshape(-1, 3),
         seg_local,
+        seg_local.copy(),
         np.array(seg_body, np.int32),
         np.array(seg_entity, np.int32),
-        seg_local.copy(),
+        np.zeros(len(seg_local)),
         circ_local,
+        circ_local.copy(),
         np.array(circ_body, np.int32),
         np.array(circ_entity, np.int32),
-        circ_local.copy(),
+        np.zeros(len(circ_local)),
+        np.flatnonzero(~seg_fixed).astype(np.int32),
+        np.flatnonzero(~circ_fixed).astype(np.int32),
+        *binned,
         np.array(owners if owners is not None else [-1] * n_ent, np.int32),
         np.ones(n_ent, np.bool_),
-        np.array(colors, np.float32).reshape(-1, 3),
+        np.concatenate([colors, colors], axis=1),
+        np.zeros((n_ent, 3)),
+        np.zeros(n_ent, np.int32),
         np.array([eye_body], np.int32),
         np.array([eye], np.float64),
         np.array([eye_owner], np.int32),
-        np.array([view_range], np.float64),
-        np.array([half_fov if half_fov is not None else float(np.abs(angles).max())]),
+        np.array([[view_range, half_fov if half_fov is not None else float(np.abs(angles).max())]]),
         np.array([falloff], np.int32),
         np.array([0, n], np.int32),
         np.stack([np.cos(angles), np.sin(angles)], axis=1),

@@ -172,3 +172,37 @@ def test_culling_agrees_with_brute_force_on_random_scenes():
             assert distance[i] == pytest.approx(best, abs=1e-9)
             if who >= 0:
                 assert hit[i] == who or distance[i] == pytest.approx(best)
+
+
+@pytest.mark.parametrize("cells", [1, 7, 64, 1024])
+def test_grid_walk_finds_exactly_what_brute_force_finds(cells):
+    rng = np.random.default_rng(cells)
+    for _ in range(25):
+        circles = [(*rng.uniform(-300, 300, 2), rng.uniform(2, 30)) for _ in range(12)]
+        polys = [box(*rng.uniform(-300, 300, 2), *rng.uniform(2, 120, 2)) for _ in range(10)]
+        # Eyes inside and outside the grid's extent; rays along the axes and diagonals too.
+        eye = (
+            *rng.uniform(-450, 450, 2),
+            rng.choice([0.0, math.pi / 2, math.pi / 4, rng.uniform(-4, 4)]),
+        )
+        angles = np.radians(np.concatenate([np.linspace(-90, 90, 37), [0.0, 45.0, -45.0]]))
+        kwargs = dict(eye=eye, polygons=polys, circles=circles, view_range=400.0, half_fov=math.pi)
+        d_grid, h_grid, img_grid = cast(angles, grid=True, cells=cells, **kwargs)
+        d_all, h_all, img_all = cast(angles, grid=False, **kwargs)
+        np.testing.assert_allclose(d_grid, d_all, rtol=0, atol=1e-9)
+        np.testing.assert_array_equal(h_grid, h_all)
+        np.testing.assert_allclose(img_grid, img_all, atol=1e-7)
+
+
+def test_an_eye_exactly_on_grid_lines_sees_the_wall():
+    # The wall's box spans the grid; eyes on cell corners, rays along the grid lines.
+    for eye in [(0.0, 0.0, 0.0), (25.0, 25.0, math.pi / 2), (-10.0, 0.0, math.pi)]:
+        walls = [
+            box(60.0, 0.0, 20.0, 400.0),
+            box(0.0, 60.0, 400.0, 20.0),
+            box(-60.0, 0.0, 20.0, 400.0),
+        ]
+        d_grid, h_grid, _ = cast([0.0, 0.3], eye=eye, polygons=walls, cells=16)
+        d_all, h_all, _ = cast([0.0, 0.3], eye=eye, polygons=walls, grid=False)
+        np.testing.assert_allclose(d_grid, d_all, atol=1e-9)
+        np.testing.assert_array_equal(h_grid, h_all)

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import pymunk
 
 from flatland_ma.scenario.schema import AgentSpec
-from flatland_ma.world.entities import RGB, CollisionType, Entity
+from flatland_ma.world.entities import RGB, Category, CollisionType, Entity, shape_filter
 
 
 @dataclass(eq=False)
@@ -78,6 +78,7 @@ def make_agent_body(
     body.angle = angle
     shape = pymunk.Circle(body, spec.radius)
     shape.collision_type = CollisionType.AGENT
+    shape.filter = shape_filter(Category.AGENT)
     shape.friction = 0.3
     shape.elasticity = 0.0
     control = pymunk.Body(body_type=pymunk.Body.KINEMATIC)

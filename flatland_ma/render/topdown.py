@@ -13,6 +13,7 @@ import pymunk
 from PIL import Image, ImageDraw, ImageFont
 
 from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.sensors.textures import KINDS, shade
 
 ARENA_PIXELS = 480
 """Length in pixels of the arena's longer side in the picture."""
@@ -20,6 +21,43 @@ SUPERSAMPLE = 2
 STRIP_HEIGHT = 18
 LABEL_HEIGHT = 14
 FOV_ALPHA = 60
+ZONE_ALPHA = 110
+TEXTURE_STEP = 1.5
+"""World units between the samples of a texture drawn along an outline."""
+
+
+def _label(value) -> str:
+    if isinstance(value, tuple):
+        return ",".join(value) or "-"
+    return f"{value:g}"
+
+
+def _polygon_outline(pts) -> list:
+    """Short pieces along a polygon's perimeter, each with its distance u from the start."""
+    pieces, u = [], 0.0
+    for i in range(len(pts)):
+        a, b = pts[i], pts[(i + 1) % len(pts)]
+        length = math.hypot(b[0] - a[0], b[1] - a[1])
+        n = max(1, int(length / TEXTURE_STEP))
+        for k in range(n):
+            p = (a[0] + (b[0] - a[0]) * k / n, a[1] + (b[1] - a[1]) * k / n)
+            q = (a[0] + (b[0] - a[0]) * (k + 1) / n, a[1] + (b[1] - a[1]) * (k + 1) / n)
+            pieces.append(((p, q), u + length * (k + 0.5) / n))
+        u += length
+    return pieces
+
+
+def _circle_outline(shape: pymunk.Circle) -> list:
+    body, r = shape.body, shape.radius
+    cx, cy = body.local_to_world(shape.offset)
+    n = max(8, int(2 * math.pi * r / TEXTURE_STEP))
+    pieces = []
+    for k in range(n):
+        a0, a1 = 2 * math.pi * k / n, 2 * math.pi * (k + 1) / n
+        p = (cx + r * math.cos(body.angle + a0), cy + r * math.sin(body.angle + a0))
+        q = (cx + r * math.cos(body.angle + a1), cy + r * math.sin(body.angle + a1))
+        pieces.append(((p, q), r * (a0 + a1) / 2))
+    return pieces
 
 
 def _rgb255(color) -> tuple[int, int, int]:
@@ -53,7 +91,7 @@ class Renderer:
         for i, name in enumerate(env.possible_agents):
             top = self.map_size[1] + i * self.strip_block
             info = task.info(i)
-            label = f"{name}  " + "  ".join(f"{k}: {v:g}" for k, v in info.items())
+            label = f"{name}  " + "  ".join(f"{k}: {_label(v)}" for k, v in info.items())
             draw.text((4, top + 1), label, fill=_rgb255(episode.bodies[i].color), font=self._font)
             image = sensors.image[sensors.slices[i]]
             colour = (np.clip(image[:, :3], 0, 1) * 255).astype(np.uint8)[None]
@@ -79,8 +117,16 @@ class Renderer:
             height = self.spec.arena.size[1]
             return ((x + self.margin) * self.scale * k, (height - y + self.margin) * self.scale * k)
 
+        for zone, rect in zip(self.spec.zones, episode.task.zones.rects):
+            if zone.color is not None:
+                x0, y0, x1, y1 = rect
+                corners = [px((x0, y1)), px((x1, y0))]
+                draw.rectangle(corners, fill=(*_rgb255(zone.color), ZONE_ALPHA))
+
         sensors = episode.sensors
         for i, body in enumerate(episode.bodies):
+            if not body.visible:
+                continue
             ox, oy = body.body.position
             heading = body.body.angle
             cam = sensors.cameras[i]
@@ -95,18 +141,25 @@ class Renderer:
         for entity in episode.world.entities:
             if not entity.visible:
                 continue
-            fill = _rgb255(entity.color)
+            texture = entity.texture
+            fill = _rgb255(entity.color if texture is None else texture.colors[0])
             for shape in entity.shapes:
                 body = shape.body
                 if isinstance(shape, pymunk.Circle):
                     cx, cy = px(body.local_to_world(shape.offset))
                     r = shape.radius * self.scale * k
                     draw.ellipse((cx - r, cy - r, cx + r, cy + r), fill=fill, outline=(0, 0, 0))
+                    outline = _circle_outline(shape)
                 elif isinstance(shape, pymunk.Poly):
-                    pts = [px(body.local_to_world(v)) for v in shape.get_vertices()]
-                    draw.polygon(pts, fill=fill, outline=(0, 0, 0))
+                    pts = [body.local_to_world(v) for v in shape.get_vertices()]
+                    draw.polygon([px(p) for p in pts], fill=fill, outline=(0, 0, 0))
+                    outline = _polygon_outline(pts)
+                if texture is not None and texture.kind != "uniform":
+                    self._draw_texture(draw, px, texture, outline)
 
         for body in episode.bodies:
+            if not body.visible:
+                continue
             x, y = body.body.position
             a = body.body.angle
             r = body.shapes[0].radius
@@ -116,6 +169,17 @@ class Renderer:
                 width=2 * k,
             )
         return image.resize(self.map_size, Image.Resampling.LANCZOS)
+
+    def _draw_texture(self, draw, px, texture, outline) -> None:
+        """Paint the surface as rays see it: its texture along the outline."""
+        kind = KINDS[texture.kind]
+        a, b = np.array(texture.colors[0]), np.array(texture.colors[1])
+        width = max(2, int(round(1.5 * SUPERSAMPLE * self.scale)))
+        for (p, q), u in outline:
+            mid = ((p[0] + q[0]) / 2, (p[1] + q[1]) / 2)
+            w = shade(kind, texture.period, texture.duty, texture.seed, u, mid[0], mid[1])
+            colour = tuple(int(round(255 * c)) for c in a * (1 - w) + b * w)
+            draw.line([px(p), px(q)], fill=colour, width=width)
 
     def show(self, frame: np.ndarray, fps: int) -> None:
         """Show a frame in the human window (opened on first use)."""

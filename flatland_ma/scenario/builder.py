@@ -1,30 +1,41 @@
 """Building an episode from a validated scenario and the env's random generator.
 
-``build`` is the only place where scenario specs become pymunk objects. Everything random
-(spawn positions and headings) is drawn from the generator it is given, in a fixed order:
-agents first, then items group by group.
+``build`` is the only place where scenario specs become a world. The layout (walls, rooms,
+corridors, doors, generated parts) is drawn first: from the env's generator when the
+scenario asks for a new layout each episode, otherwise from the layout's own seed (and then
+reused). Then agents, then items group by group, are placed at free places the agents can
+reach, from the env's generator, in that order.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-import pymunk
 
 from flatland_ma.agents.body import AgentBody, make_agent_body
+from flatland_ma.scenario import layout as layouts
 from flatland_ma.scenario.errors import SpecError
-from flatland_ma.scenario.schema import ArenaSpec, ItemSpec, ScenarioSpec
+from flatland_ma.scenario.factory import (
+    make_arena_walls,
+    make_door,
+    make_item,
+    make_obstacle,
+    make_walls,
+)
+from flatland_ma.scenario.scatter import scatter_obstacles
+from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.camera import Camera
 from flatland_ma.sensors.suite import Sensors
-from flatland_ma.tasks.foraging import ForagingTask
-from flatland_ma.world.entities import CollisionType, Item, Obstacle, Wall
-from flatland_ma.world.placement import PlacementError, sample_free_position
+from flatland_ma.tasks.task import Task
+from flatland_ma.world.entities import Door, Wall
+from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.placement import PlacementError, Placer
 from flatland_ma.world.world import World
 
-FLOOR_GRAVITY = 1000.0
-"""Units per second squared: turns ``floor_friction`` into a sliding resistance force."""
+LAYOUT_TRIES = 20
+"""Fresh draws of a generated layout before giving up on one that cannot be built."""
 
 
 @dataclass
@@ -34,37 +45,110 @@ class Episode:
     world: World
     bodies: list[AgentBody]
     sensors: Sensors
-    task: ForagingTask
+    task: Task
+    grid: NavGrid
+    """Free places for an agent's centre; doors and movable things count as free."""
+    placer: Placer
+    doors: list[Door] = field(default_factory=list)
 
 
-def build(spec: ScenarioSpec, rng: np.random.Generator, cameras: list[Camera]) -> Episode:
-    world = World(spec.physics, spec.arena.size)
-    world.add(make_arena_walls(spec.arena))
-    for i, obstacle in enumerate(spec.obstacles):
-        entity = make_obstacle(obstacle, world.space)
-        for shape in entity.shapes:
-            for hit in world.space.shape_query(shape):
-                other = world.entity_of_shape[hit.shape]
-                what = "the arena wall" if isinstance(other, Wall) else "another obstacle"
-                raise SpecError(("obstacles", i), f"overlaps {what}")
-        world.add(entity)
+@dataclass
+class LayoutCache:
+    """The static layout of a scenario whose layout does not change between episodes."""
+
+    seeds: dict = field(default_factory=dict)
+
+
+def build(
+    spec: ScenarioSpec,
+    rng: np.random.Generator,
+    cameras: list[Camera],
+    cache: LayoutCache | None = None,
+) -> Episode:
+    fixed = not spec.layout.per_episode or not spec.layout.generators
+    layout_rng = np.random.default_rng(spec.layout.seed) if fixed else rng
+    for attempt in range(1 if fixed else LAYOUT_TRIES):
+        try:
+            world, doors, grid = _static_world(spec, layout_rng)
+            break
+        except SpecError:
+            if fixed or attempt == LAYOUT_TRIES - 1:
+                raise
+    start = grid.cells_in(spec.agent.spawn.area)
+    reachable = grid.reachable(start)
+    placer = Placer(world, grid, reachable)
 
     bodies = []
     for i in range(spec.n_agents):
-        x, y = _place(world, rng, spec.agent.radius, ("n_agents",), "agent")
-        angle = float(rng.uniform(-math.pi, math.pi))
+        x, y = _place(placer, rng, spec.agent.radius, spec.agent.spawn.area, ("n_agents",), "agent")
+        heading = spec.agent.spawn.heading
+        angle = float(rng.uniform(-math.pi, math.pi)) if heading is None else math.radians(heading)
         color = spec.agent.colors[i % len(spec.agent.colors)]
         body = make_agent_body(spec.agent, i, (x, y), angle, color, world.substep_dt)
         bodies.append(world.add(body))
 
     for g, item_spec in enumerate(spec.items):
+        if item_spec.positions is not None:
+            for k, (x, y) in enumerate(item_spec.positions):
+                if not reachable[grid.cell_of(x, y)]:
+                    raise SpecError(("items", g, "positions", k), "agents cannot reach this place")
+                world.add(make_item(item_spec, g, x, y, home=(x, y)))
+            continue
         for _ in range(item_spec.count):
-            x, y = _place(world, rng, item_spec.radius, ("items", g, "count"), "item")
+            path = ("items", g, "spawn" if item_spec.spawn is not None else "count")
+            x, y = _place(placer, rng, item_spec.radius, item_spec.spawn, path, "item")
             world.add(make_item(item_spec, g, x, y))
 
     sensors = Sensors(world, bodies, cameras)
-    task = ForagingTask(spec, world, sensors.geometry)
-    return Episode(world, bodies, sensors, task)
+    task = Task(spec, world, sensors.geometry, bodies, doors, placer, rng)
+    return Episode(world, bodies, sensors, task, grid, placer, doors)
+
+
+def _static_world(
+    spec: ScenarioSpec, rng: np.random.Generator
+) -> tuple[World, list[Door], NavGrid]:
+    """The walls, doors and obstacles of one layout, with the grid of where agents fit."""
+    world = World(spec.physics, spec.arena.size)
+    world.add(make_arena_walls(spec.arena))
+    parts = [layouts.explicit_layout(spec)]
+    for index, gen in enumerate(spec.layout.generators):
+        if gen.generator == "grid_rooms":
+            parts.append(layouts.grid_rooms(gen, spec, rng, index))
+        elif gen.generator == "maze":
+            parts.append(layouts.maze(gen, spec, rng, index))
+    for wall in make_walls([p for part in parts for p in part.walls], world.space.static_body):
+        world.add(wall)
+    doors = [world.add(make_door(piece, world.space)) for part in parts for piece in part.doors]
+    for i, obstacle in enumerate(spec.obstacles):
+        entity = make_obstacle(obstacle, world.space)
+        for shape in entity.shapes:
+            shape.cache_bb()
+            for hit in world.space.shape_query(shape):
+                other = world.entity_of_shape[hit.shape]
+                what = (
+                    "a wall"
+                    if isinstance(other, Wall)
+                    else "a door"
+                    if isinstance(other, Door)
+                    else "another obstacle"
+                )
+                raise SpecError(("obstacles", i), f"overlaps {what}")
+        world.add(entity)
+
+    grid = NavGrid(spec.arena.size, spec.agent.radius)
+    for entity in world.entities:
+        if entity.blocks_paths:
+            for shape in entity.shapes:
+                grid.block_shape(shape)
+    start = grid.cells_in(spec.agent.spawn.area)
+    for index, gen in enumerate(spec.layout.generators):
+        if gen.generator == "random_obstacles":
+            path = ("layout", "generators", index)
+            grid = scatter_obstacles(gen, world, grid, start, rng, path)
+    if not (start & ~grid.blocked).any():
+        where = ("agent", "spawn", "area") if spec.agent.spawn.area else ("arena", "size")
+        raise SpecError(where, "no free place where agents could start")
+    return world, doors, grid
 
 
 def check_layout(spec: ScenarioSpec) -> None:
@@ -73,75 +157,8 @@ def check_layout(spec: ScenarioSpec) -> None:
     build(spec, np.random.default_rng(0), cameras)
 
 
-def _place(world, rng, radius, path, what) -> tuple[float, float]:
+def _place(placer: Placer, rng, radius, area, path, what) -> tuple[float, float]:
     try:
-        return sample_free_position(world, rng, radius)
+        return placer.sample(rng, radius, area)
     except PlacementError as err:
         raise SpecError(path, f"no room to place every {what}: {err}") from None
-
-
-def make_arena_walls(arena: ArenaSpec) -> Wall:
-    """Four boxes around the playing area [0, width] x [0, height], outside it."""
-    w, h = arena.size
-    t = arena.wall.thickness
-    body = pymunk.Body(body_type=pymunk.Body.STATIC)
-    boxes = [
-        [(-t, -t), (w + t, -t), (w + t, 0), (-t, 0)],
-        [(-t, h), (w + t, h), (w + t, h + t), (-t, h + t)],
-        [(-t, 0), (0, 0), (0, h), (-t, h)],
-        [(w, 0), (w + t, 0), (w + t, h), (w, h)],
-    ]
-    shapes = []
-    for corners in boxes:
-        shape = pymunk.Poly(body, corners)
-        shape.collision_type = CollisionType.WALL
-        shape.friction = 0.5
-        shapes.append(shape)
-    return Wall(body=body, shapes=tuple(shapes), color=arena.wall.color)
-
-
-def make_obstacle(spec, space: pymunk.Space) -> Obstacle:
-    vertices = spec.local_vertices()
-    if spec.movable:
-        if vertices is None:
-            moment = pymunk.moment_for_circle(spec.mass, 0.0, spec.radius)
-        else:
-            moment = pymunk.moment_for_poly(spec.mass, vertices)
-        body = pymunk.Body(spec.mass, moment)
-    else:
-        body = pymunk.Body(body_type=pymunk.Body.STATIC)
-    body.position = spec.position
-    body.angle = math.radians(spec.angle)
-    if vertices is None:
-        shape = pymunk.Circle(body, spec.radius)
-    else:
-        shape = pymunk.Poly(body, vertices)
-    shape.collision_type = CollisionType.OBSTACLE
-    shape.friction = spec.friction
-    shape.elasticity = spec.elasticity
-    constraints = ()
-    if spec.movable and spec.floor_friction > 0:
-        force = spec.floor_friction * spec.mass * FLOOR_GRAVITY
-        slide = pymunk.PivotJoint(space.static_body, body, (0.0, 0.0), (0.0, 0.0))
-        spin = pymunk.GearJoint(space.static_body, body, 0.0, 1.0)
-        slide.max_bias = spin.max_bias = 0.0
-        slide.max_force = force
-        spin.max_force = force * spec.bounding_radius() * 0.5
-        constraints = (slide, spin)
-    return Obstacle(body=body, shapes=(shape,), color=spec.color, constraints=constraints)
-
-
-def make_item(spec: ItemSpec, group: int, x: float, y: float) -> Item:
-    body = pymunk.Body(body_type=pymunk.Body.STATIC)
-    body.position = (x, y)
-    shape = pymunk.Circle(body, spec.radius)
-    shape.sensor = True
-    shape.collision_type = CollisionType.ITEM
-    return Item(
-        body=body,
-        shapes=(shape,),
-        color=spec.color,
-        group=group,
-        reward=spec.reward,
-        radius=spec.radius,
-    )

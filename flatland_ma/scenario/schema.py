@@ -1,231 +1,223 @@
 """The scenario schema: every field of a scenario file, its type, range and default.
 
 Models are frozen and reject unknown keys. Numbers are strict (a quoted ``"10"`` is an
-error, not a number); lengths are in world units, angles in degrees, times in seconds.
-``docs/scenarios.md`` documents each field for authors of scenario files.
+error, not a number); lengths are in world units, angles in degrees, times in seconds and
+rectangles ``[x0, y0, x1, y1]``. ``docs/scenarios.md`` documents each field for authors.
+The sections live in ``spec_world`` (layout), ``spec_objects`` (obstacles and items) and
+``spec_agent`` (agents); this module ties them together and checks what spans sections.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from typing import Annotated
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import Field, model_validator
 
-from flatland_ma.scenario.colors import parse_color
 from flatland_ma.scenario.errors import SpecError
+from flatland_ma.scenario.spec_agent import AgentSpec, CameraSpec, SpawnSpec
+from flatland_ma.scenario.spec_objects import (
+    BoxObstacle,
+    CircleObstacle,
+    ItemSpec,
+    Obstacle,
+    ObstacleBase,
+    PolygonObstacle,
+)
+from flatland_ma.scenario.spec_world import (
+    ArenaSpec,
+    CorridorSpec,
+    DoorSpec,
+    GridRoomsSpec,
+    LayoutSpec,
+    MazeSpec,
+    OpeningSpec,
+    RandomObstaclesSpec,
+    RoomSpec,
+    WallSpec,
+    WallStyle,
+    ZoneSpec,
+)
+from flatland_ma.scenario.types import Flag, Name, Positive, Spec, TextureSpec, int_range
 
-Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
-Positive = Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
-NonNegative = Annotated[float, Field(strict=True, ge=0, allow_inf_nan=False)]
-UnitInterval = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)]
-Vec2 = tuple[Real, Real]
-Size2 = tuple[Positive, Positive]
-Color = Annotated[tuple[float, float, float], BeforeValidator(parse_color)]
-Name = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
+__all__ = [
+    "AgentSpec",
+    "ArenaSpec",
+    "BoxObstacle",
+    "CameraSpec",
+    "CircleObstacle",
+    "CorridorSpec",
+    "DoorSpec",
+    "EpisodeSpec",
+    "GridRoomsSpec",
+    "ItemSpec",
+    "LayoutSpec",
+    "MazeSpec",
+    "ObstacleBase",
+    "OpeningSpec",
+    "PhysicsSpec",
+    "PolygonObstacle",
+    "RandomObstaclesSpec",
+    "RoomSpec",
+    "ScenarioSpec",
+    "SpawnSpec",
+    "TextureSpec",
+    "WallSpec",
+    "WallStyle",
+    "ZoneSpec",
+]
 
-
-def _int(lo: int, hi: int):
-    return Annotated[int, Field(strict=True, ge=lo, le=hi)]
-
-
-class Spec(BaseModel):
-    """Base of every scenario model: frozen, and unknown keys are errors."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+RESERVED_NAMES = ("score", "keys")
+"""Keys of ``infos[agent]`` that item groups may not take."""
 
 
 class PhysicsSpec(Spec):
     dt: Positive = 1.0 / 30.0
     """Simulated seconds per environment step."""
-    substeps: _int(1, 32) = 2
+    substeps: int_range(1, 32) = 2
     """pymunk steps per environment step (each of ``dt / substeps`` seconds)."""
-    iterations: _int(1, 100) = 10
+    iterations: int_range(1, 100) = 10
     """Constraint-solver iterations per pymunk step."""
 
 
 class EpisodeSpec(Spec):
-    max_steps: _int(1, 10_000_000) = 500
+    max_steps: int_range(1, 10_000_000) = 500
     """Episode length in environment steps; reaching it is reported as truncation."""
-
-
-class WallSpec(Spec):
-    thickness: Positive = 10.0
-    """Thickness of the arena's boundary walls, outside the playing area."""
-    color: Color = "gray"
-
-
-class ArenaSpec(Spec):
-    size: Size2 = (300.0, 300.0)
-    """Width and height of the playing area; walls lie outside it."""
-    wall: WallSpec = WallSpec()
-    floor_color: Color = "beige"
-    """Only drawn by the renderer; rays never see the floor."""
-
-
-class ObstacleBase(Spec):
-    position: Vec2
-    """Centre of the obstacle, in arena coordinates (origin at the bottom-left corner)."""
-    angle: Real = 0.0
-    """Rotation in degrees, counter-clockwise."""
-    color: Color = "darkgray"
-    movable: Annotated[bool, Field(strict=True)] = False
-    """Movable obstacles are dynamic bodies that agents can push."""
-    mass: Positive = 10.0
-    friction: NonNegative = 0.5
-    """Surface (Coulomb) friction against agents and other obstacles."""
-    elasticity: UnitInterval = 0.0
-    floor_friction: NonNegative = 0.5
-    """Resistance to sliding on the floor, for movable obstacles (force = this x mass x g)."""
-
-    def local_vertices(self) -> list[tuple[float, float]] | None:
-        """Polygon vertices around the centre, counter-clockwise; None for a circle."""
-        return None
-
-
-class CircleObstacle(ObstacleBase):
-    shape: Literal["circle"]
-    radius: Positive
-
-    def bounding_radius(self) -> float:
-        return self.radius
-
-
-class BoxObstacle(ObstacleBase):
-    shape: Literal["box"]
-    size: Size2
-    """Width and height before rotation."""
-
-    def local_vertices(self) -> list[tuple[float, float]]:
-        w, h = self.size[0] / 2.0, self.size[1] / 2.0
-        return [(-w, -h), (w, -h), (w, h), (-w, h)]
-
-    def bounding_radius(self) -> float:
-        return math.hypot(self.size[0], self.size[1]) / 2.0
-
-
-class PolygonObstacle(ObstacleBase):
-    shape: Literal["polygon"]
-    vertices: Annotated[tuple[Vec2, ...], Field(min_length=3, max_length=32)]
-    """Vertices relative to ``position``; the polygon must be convex."""
-
-    @model_validator(mode="after")
-    def _convex(self):
-        pts = self.vertices
-        n = len(pts)
-        signs = set()
-        for i in range(n):
-            ax, ay = pts[i]
-            bx, by = pts[(i + 1) % n]
-            cx, cy = pts[(i + 2) % n]
-            cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
-            if abs(cross) > 1e-9:
-                signs.add(cross > 0)
-        if len(signs) != 1 or _polygon_area(pts) < 1e-6:
-            raise ValueError("vertices must form a convex polygon with non-zero area")
-        return self
-
-    def local_vertices(self) -> list[tuple[float, float]]:
-        pts = list(self.vertices)
-        return pts if _polygon_area(pts) > 0 else pts[::-1]
-
-    def bounding_radius(self) -> float:
-        return max(math.hypot(x, y) for x, y in self.vertices)
-
-
-def _polygon_area(pts) -> float:
-    """Signed area: positive when the vertices run counter-clockwise."""
-    n = len(pts)
-    return 0.5 * sum(
-        pts[i][0] * pts[(i + 1) % n][1] - pts[(i + 1) % n][0] * pts[i][1] for i in range(n)
-    )
-
-
-Obstacle = Annotated[CircleObstacle | BoxObstacle | PolygonObstacle, Field(discriminator="shape")]
-
-
-class ItemSpec(Spec):
-    name: Name
-    """Name of the group; the agents' ``infos`` count how many of it each has eaten."""
-    color: Color
-    reward: Real
-    """Reward to the agent that touches one."""
-    count: _int(0, 10_000)
-    """How many lie in the arena at once."""
-    radius: Positive = 6.0
-    respawn: Literal["immediate", "never"] = "immediate"
-    """``immediate``: an eaten item reappears at once at a random free position."""
-
-
-class CameraSpec(Spec):
-    rays: _int(1, 4096) = 64
-    """Number of rays, i.e. the width of the 1-D image."""
-    fov: Annotated[float, Field(strict=True, gt=0, le=360, allow_inf_nan=False)] = 120.0
-    """Field of view in degrees, centred on the heading."""
-    range: Positive = 300.0
-    """Farthest distance a ray sees; depth is normalised by it."""
-    falloff: Literal["linear", "none"] = "linear"
-    """How colour intensity falls with distance: ``linear`` is ``1 - d / range``."""
-
-
-class AgentSpec(Spec):
-    radius: Positive = 10.0
-    mass: Positive = 1.0
-    colors: Annotated[tuple[Color, ...], Field(min_length=1)] = (
-        "blue",
-        "red",
-        "green",
-        "yellow",
-        "cyan",
-        "magenta",
-        "teal",
-        "brown",
-    )
-    """Agent i is drawn (and seen by other agents) in ``colors[i % len(colors)]``."""
-    actions: Literal["discrete", "continuous"] = "discrete"
-    max_speed: Positive = 200.0
-    """Top linear speed, units per second."""
-    max_turn_rate: Positive = 300.0
-    """Top angular speed, degrees per second."""
-    max_force: Positive = 15_000.0
-    """Largest force the agent's motor applies to reach its commanded velocity."""
-    max_torque: Positive = 100_000.0
-    """Largest torque the agent's motor applies to reach its commanded turn rate."""
-    camera: CameraSpec = CameraSpec()
+    shared_end: Flag = False
+    """When one agent's episode ends (a goal, a terminal zone), everyone's does."""
+    end_when_eaten: Name | None = None
+    """End everyone's episode once no item of this group is left (with ``respawn: never``)."""
 
 
 class ScenarioSpec(Spec):
     description: Annotated[str, Field(strict=True, max_length=200)] = ""
     """One line shown by ``flatland-ma list``."""
-    n_agents: _int(1, 64) = 1
+    n_agents: int_range(1, 64) = 1
     episode: EpisodeSpec = EpisodeSpec()
     physics: PhysicsSpec = PhysicsSpec()
     arena: ArenaSpec = ArenaSpec()
+    walls: tuple[WallSpec, ...] = ()
+    rooms: tuple[RoomSpec, ...] = ()
+    corridors: tuple[CorridorSpec, ...] = ()
+    doors: tuple[DoorSpec, ...] = ()
+    zones: tuple[ZoneSpec, ...] = ()
+    layout: LayoutSpec = LayoutSpec()
     obstacles: tuple[Obstacle, ...] = ()
     items: tuple[ItemSpec, ...] = ()
     agent: AgentSpec = AgentSpec()
 
     @model_validator(mode="after")
-    def _obstacles_inside_arena(self):
-        width, height = self.arena.size
-        for i, obstacle in enumerate(self.obstacles):
-            x, y = obstacle.position
-            r = obstacle.bounding_radius()
-            verts = obstacle.local_vertices()
-            if verts is None:
-                xs, ys = (x - r, x + r), (y - r, y + r)
-            else:
-                a = math.radians(obstacle.angle)
-                c, s = math.cos(a), math.sin(a)
-                xs = [x + c * vx - s * vy for vx, vy in verts]
-                ys = [y + s * vx + c * vy for vx, vy in verts]
-            if min(xs) < 0 or min(ys) < 0 or max(xs) > width or max(ys) > height:
-                raise SpecError(
-                    ("obstacles", i, "position"),
-                    f"obstacle reaches outside the {width:g} x {height:g} arena",
-                )
-        names = [item.name for item in self.items]
-        for i, name in enumerate(names):
-            if name in names[:i]:
-                raise SpecError(("items", i, "name"), f"item name {name!r} used twice")
+    def _cross_checks(self):
+        self._check_inside_arena()
+        self._check_names()
+        self._check_speed_against_walls()
         return self
+
+    def all_doors(self) -> list[tuple[tuple, DoorSpec]]:
+        """Every door with its key path: standalone ones and those in room openings."""
+        doors = [(("doors", i), d) for i, d in enumerate(self.doors)]
+        for r, room in enumerate(self.rooms):
+            for o, opening in enumerate(room.openings):
+                if opening.door is not None:
+                    doors.append((("rooms", r, "openings", o, "door"), opening.door))
+        return doors
+
+    def _check_inside_arena(self) -> None:
+        width, height = self.arena.size
+
+        def inside(x0, y0, x1, y1) -> bool:
+            return x0 >= 0 and y0 >= 0 and x1 <= width and y1 <= height
+
+        where = f"outside the {width:g} x {height:g} arena"
+        for i, obstacle in enumerate(self.obstacles):
+            if not inside(*_obstacle_bounds(obstacle)):
+                raise SpecError(("obstacles", i, "position"), f"obstacle reaches {where}")
+        for i, zone in enumerate(self.zones):
+            if zone.rect is not None and not inside(*zone.rect):
+                raise SpecError(("zones", i, "rect"), f"zone lies {where}")
+            if zone.area is not None and not inside(*zone.area):
+                raise SpecError(("zones", i, "area"), f"zone area lies {where}")
+            if zone.size is not None:
+                x0, y0, x1, y1 = zone.area or (0, 0, width, height)
+                if zone.size[0] > x1 - x0 or zone.size[1] > y1 - y0:
+                    raise SpecError(("zones", i, "size"), "zone is larger than its area")
+        for i, room in enumerate(self.rooms):
+            if not inside(*room.rect):
+                raise SpecError(("rooms", i, "rect"), f"room lies {where}")
+        for i, item in enumerate(self.items):
+            if item.spawn is not None and not inside(*item.spawn):
+                raise SpecError(("items", i, "spawn"), f"spawn area lies {where}")
+            for k, (x, y) in enumerate(item.positions or ()):
+                if not inside(x - item.radius, y - item.radius, x + item.radius, y + item.radius):
+                    raise SpecError(("items", i, "positions", k), f"item lies {where}")
+        spawn = self.agent.spawn.area
+        if spawn is not None and not inside(*spawn):
+            raise SpecError(("agent", "spawn", "area"), f"spawn area lies {where}")
+
+    def _check_names(self) -> None:
+        groups = [item.name for item in self.items]
+        for i, name in enumerate(groups):
+            if name in groups[:i]:
+                raise SpecError(("items", i, "name"), f"item name {name!r} used twice")
+            if name in RESERVED_NAMES:
+                raise SpecError(("items", i, "name"), f"{name!r} is reserved for infos")
+        zones = [z.name for z in self.zones if z.name is not None]
+        for i, zone in enumerate(self.zones):
+            if zone.name is not None and zones.count(zone.name) > 1:
+                raise SpecError(("zones", i, "name"), f"zone name {zone.name!r} used twice")
+        keys = {item.name for item in self.items if item.key}
+        door_names = []
+        for path, door in self.all_doors():
+            if door.key is not None and door.key not in keys:
+                raise SpecError(
+                    path + ("key",),
+                    f"no item group {door.key!r} with 'key: true'; key groups: {sorted(keys)}",
+                )
+            if door.switch is not None and door.switch not in zones:
+                raise SpecError(
+                    path + ("switch",), f"no zone named {door.switch!r}; zones: {zones}"
+                )
+            if door.name is not None:
+                if door.name in door_names:
+                    raise SpecError(path + ("name",), f"door name {door.name!r} used twice")
+                door_names.append(door.name)
+        for path, door in self.all_doors():
+            if path[0] == "doors" and door.start is None:
+                raise SpecError(path, "a door outside a room opening needs 'start' and 'end'")
+        eaten = self.episode.end_when_eaten
+        if eaten is not None and eaten not in groups:
+            raise SpecError(
+                ("episode", "end_when_eaten"),
+                f"no item group {self.episode.end_when_eaten!r}; groups: {groups}",
+            )
+
+    def _check_speed_against_walls(self) -> None:
+        """A body moves at most one substep's travel into a wall between two contact
+        checks: walls thinner than that could be crossed."""
+        travel = self.agent.max_speed * self.physics.dt / self.physics.substeps
+        thinnest = [(("arena", "wall", "thickness"), self.arena.wall.thickness)]
+        for key in ("walls", "rooms", "corridors"):
+            for i, part in enumerate(getattr(self, key)):
+                if part.thickness is not None:
+                    thinnest.append(((key, i, "thickness"), part.thickness))
+        for path, thickness in thinnest:
+            if thickness / 2 + self.agent.radius <= travel:
+                raise SpecError(
+                    path,
+                    f"walls {thickness:g} thick can be crossed by an agent moving "
+                    f"{travel:g} units per substep (radius {self.agent.radius:g}); use thicker "
+                    "walls, more physics substeps or a lower max_speed",
+                )
+
+
+def _obstacle_bounds(obstacle) -> tuple[float, float, float, float]:
+    x, y = obstacle.position
+    verts = obstacle.local_vertices()
+    if verts is None:
+        r = obstacle.bounding_radius()
+        return x - r, y - r, x + r, y + r
+    a = math.radians(obstacle.angle)
+    c, s = math.cos(a), math.sin(a)
+    xs = [x + c * vx - s * vy for vx, vy in verts]
+    ys = [y + s * vx + c * vy for vx, vy in verts]
+    return min(xs), min(ys), max(xs), max(ys)

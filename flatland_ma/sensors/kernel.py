@@ -3,16 +3,21 @@
 The world is flat arrays (see ``geometry.py``):
 
 - segments: the edges of convex polygons, counter-clockwise, so each edge's outward
-  normal is (ey, -ex); a ray only hits an edge from outside (back faces are skipped);
-- circles: centre and radius;
+  normal is (ey, -ex); a ray only hits an edge from outside (back faces are skipped).
+  Each edge also knows how far along its polygon's perimeter it starts (for textures);
+- circles: centre and radius, and the angle textures start from;
 - each segment and circle names its entity; entities carry an owner (the agent they
-  belong to, whose own cameras do not see them), a visibility flag and a colour.
+  belong to, whose own cameras do not see them), a visibility flag, two colours and a
+  texture (kind and parameters; see ``textures.py``).
 
 Shapes on moving bodies are stored in body coordinates and moved by the body poses at the
-start of each call; static shapes are stored in world coordinates. Each camera ("eye")
-first culls the shapes that cannot be in its view (range and field of view), then casts
-its rays against what is left. Outputs per ray: the colour image (RGB times intensity, and
-normalised depth), the distance and the entity hit (-1 for none).
+start of each call; static shapes are stored in world coordinates. Shapes that never move
+(walls, fixed obstacles, doors) are also binned in a uniform grid: each ray walks the grid
+cells it crosses, nearest first (a DDA), and stops once its nearest hit lies before the
+cell's far edge. Everything else ("loose" shapes: agents, items, movable things) is culled
+per camera ("eye") by range and field of view, then tested against every ray of that eye.
+Outputs per ray: the colour image (RGB times intensity, and normalised depth), the
+distance and the entity hit (-1 for none).
 """
 
 from __future__ import annotations
@@ -21,6 +26,8 @@ import math
 
 import numba as nb
 import numpy as np
+
+from flatland_ma.sensors.textures import shade
 
 FALLOFF_LINEAR = 0
 FALLOFF_NONE = 1
@@ -32,34 +39,82 @@ def _in_view(dx, dy, radius, view_range, hx, hy, half_fov):
     d2 = dx * dx + dy * dy
     if d2 <= radius * radius:
         return True
-    d = math.sqrt(d2)
-    if d - radius > view_range:
+    reach = view_range + radius
+    if d2 > reach * reach:
         return False
+    d = math.sqrt(d2)
     limit = half_fov + math.asin(radius / d)
     if limit >= math.pi:
         return True
     return (dx * hx + dy * hy) >= d * math.cos(limit)
 
 
+@nb.njit(cache=True, inline="always")
+def _segment_t(seg_world, s, ox, oy, dx, dy, best):
+    """Distance along the ray to segment ``s`` if nearer than ``best`` (else -1), and the
+    fraction along the segment where it is hit."""
+    x1, y1 = seg_world[s, 0], seg_world[s, 1]
+    ex, ey = seg_world[s, 2] - x1, seg_world[s, 3] - y1
+    denom = dx * ey - dy * ex
+    if denom >= 0.0:  # parallel, or the back of the edge
+        return -1.0, 0.0
+    wx, wy = x1 - ox, y1 - oy
+    t = (wx * ey - wy * ex) / denom
+    if t < 0.0 or t >= best:
+        return -1.0, 0.0
+    along = (wx * dy - wy * dx) / denom
+    if along < 0.0 or along > 1.0:
+        return -1.0, 0.0
+    return t, along
+
+
+@nb.njit(cache=True, inline="always")
+def _circle_t(circ_world, s, ox, oy, dx, dy, best):
+    """Distance along the ray to circle ``s`` if nearer than ``best``, else -1."""
+    mx, my = ox - circ_world[s, 0], oy - circ_world[s, 1]
+    rad = circ_world[s, 2]
+    bb = mx * dx + my * dy
+    cc = mx * mx + my * my - rad * rad
+    if cc > 0.0 and bb > 0.0:  # outside and looking away
+        return -1.0
+    disc = bb * bb - cc
+    if disc < 0.0:
+        return -1.0
+    t = -bb - math.sqrt(disc)
+    if t < 0.0:  # the eye is inside the circle
+        t = 0.0
+    return t if t < best else -1.0
+
+
 @nb.njit(cache=True)
 def observe(
     pose,
     seg_local,
+    seg_world,
     seg_body,
     seg_entity,
-    seg_world,
+    seg_u0,
     circ_local,
+    circ_world,
     circ_body,
     circ_entity,
-    circ_world,
+    circ_angle,
+    loose_seg,
+    loose_circ,
+    grid,
+    cell_seg_start,
+    cell_seg,
+    cell_circ_start,
+    cell_circ,
     ent_owner,
     ent_visible,
-    ent_color,
+    ent_colors,
+    ent_texture,
+    ent_texture_kind,
     eye_body,
     eye_local,
     eye_owner,
-    eye_range,
-    eye_half_fov,
+    eye_view,
     eye_falloff,
     eye_rays,
     ray_dir,
@@ -72,9 +127,13 @@ def observe(
     """Move the moving shapes to their bodies' poses, then cast every ray.
 
     pose (B, 3): x, y, angle of each moving body. *_body: index into pose, or -1 for a
-    static shape. eye_rays (V + 1,): rays of eye v are eye_rays[v]:eye_rays[v + 1].
-    ray_dir (N, 2): cosine and sine of each ray's angle relative to its eye's heading.
-    Writes image (N, 4), distance (N,) and hit_entity (N,).
+    static shape. loose_seg, loose_circ: indices of the shapes not in the grid. grid:
+    x0, y0, cell size, columns, rows; cell k lists cell_seg[cell_seg_start[k]:
+    cell_seg_start[k + 1]] (likewise circles). ent_colors (E, 6): first and second
+    colour. ent_texture (E, 3): period, duty, seed. eye_view (V, 2): range and half field
+    of view. eye_rays (V + 1,): rays of eye v are eye_rays[v]:eye_rays[v + 1]. ray_dir
+    (N, 2): cosine and sine of each ray's angle relative to its eye's heading.
+    Writes image (N, 4), distance (N,), hit_entity (N,).
     """
     for s in range(seg_local.shape[0]):
         b = seg_body[s]
@@ -95,6 +154,8 @@ def observe(
             circ_world[s, 1] = py + sn * lx + c * ly
             circ_world[s, 2] = circ_local[s, 2]
 
+    gx0, gy0, cell = grid[0], grid[1], grid[2]
+    gnx, gny = int(grid[3]), int(grid[4])
     for v in range(eye_body.shape[0]):
         b = eye_body[v]
         if b >= 0:
@@ -107,11 +168,12 @@ def observe(
             ox, oy, heading = eye_local[v, 0], eye_local[v, 1], eye_local[v, 2]
         hx, hy = math.cos(heading), math.sin(heading)
         owner = eye_owner[v]
-        view_range = eye_range[v]
-        half_fov = eye_half_fov[v]
+        view_range = eye_view[v, 0]
+        half_fov = eye_view[v, 1]
 
         n_seg = 0
-        for s in range(seg_world.shape[0]):
+        for k in range(loose_seg.shape[0]):
+            s = loose_seg[k]
             e = seg_entity[s]
             if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
                 continue
@@ -122,7 +184,8 @@ def observe(
                 cand_seg[n_seg] = s
                 n_seg += 1
         n_circ = 0
-        for s in range(circ_world.shape[0]):
+        for k in range(loose_circ.shape[0]):
+            s = loose_circ[k]
             e = circ_entity[s]
             if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
                 continue
@@ -136,55 +199,168 @@ def observe(
             dx = hx * lc - hy * ls
             dy = hy * lc + hx * ls
             best = view_range
-            hit = -1
+            hit_seg = -1
+            hit_circ = -1
+            hit_along = 0.0
             for k in range(n_seg):
                 s = cand_seg[k]
-                x1, y1 = seg_world[s, 0], seg_world[s, 1]
-                ex, ey = seg_world[s, 2] - x1, seg_world[s, 3] - y1
-                denom = dx * ey - dy * ex
-                if denom >= 0.0:  # parallel, or the back of the edge
-                    continue
-                wx, wy = x1 - ox, y1 - oy
-                t = (wx * ey - wy * ex) / denom
-                if t < 0.0 or t >= best:
-                    continue
-                u = (wx * dy - wy * dx) / denom
-                if u < 0.0 or u > 1.0:
-                    continue
-                best = t
-                hit = seg_entity[s]
+                t, along = _segment_t(seg_world, s, ox, oy, dx, dy, best)
+                if t >= 0.0:
+                    best, hit_seg, hit_along = t, s, along
             for k in range(n_circ):
                 s = cand_circ[k]
-                mx, my = ox - circ_world[s, 0], oy - circ_world[s, 1]
-                rad = circ_world[s, 2]
-                bb = mx * dx + my * dy
-                cc = mx * mx + my * my - rad * rad
-                if cc > 0.0 and bb > 0.0:  # outside and looking away
-                    continue
-                disc = bb * bb - cc
-                if disc < 0.0:
-                    continue
-                t = -bb - math.sqrt(disc)
-                if t < 0.0:  # the eye is inside the circle
-                    t = 0.0
-                if t < best:
-                    best = t
-                    hit = circ_entity[s]
+                t = _circle_t(circ_world, s, ox, oy, dx, dy, best)
+                if t >= 0.0:
+                    best, hit_seg, hit_circ = t, -1, s
+
+            # Walk the grid of fixed shapes from the eye outwards (Amanatides-Woo).
+            t_in = 0.0
+            t_out = best
+            for axis in range(2):
+                o = ox if axis == 0 else oy
+                d = dx if axis == 0 else dy
+                lo = gx0 if axis == 0 else gy0
+                hi = lo + cell * (gnx if axis == 0 else gny)
+                if abs(d) < 1e-12:
+                    if o < lo or o > hi:
+                        t_in = t_out + 1.0
+                else:
+                    ta, tb = (lo - o) / d, (hi - o) / d
+                    if ta > tb:
+                        ta, tb = tb, ta
+                    t_in = max(t_in, ta)
+                    t_out = min(t_out, tb)
+            if t_in <= t_out:
+                cx = ox + t_in * dx
+                cy = oy + t_in * dy
+                i = min(gnx - 1, max(0, int((cx - gx0) / cell)))
+                j = min(gny - 1, max(0, int((cy - gy0) / cell)))
+                step_i = 1 if dx > 0 else -1
+                step_j = 1 if dy > 0 else -1
+                if abs(dx) > 1e-12:
+                    edge = gx0 + (i + (1 if dx > 0 else 0)) * cell
+                    t_next_i = (edge - ox) / dx
+                    t_delta_i = cell / abs(dx)
+                else:
+                    t_next_i = np.inf
+                    t_delta_i = np.inf
+                if abs(dy) > 1e-12:
+                    edge = gy0 + (j + (1 if dy > 0 else 0)) * cell
+                    t_next_j = (edge - oy) / dy
+                    t_delta_j = cell / abs(dy)
+                else:
+                    t_next_j = np.inf
+                    t_delta_j = np.inf
+                while True:
+                    k = j * gnx + i
+                    for q in range(cell_seg_start[k], cell_seg_start[k + 1]):
+                        s = cell_seg[q]
+                        e = seg_entity[s]
+                        if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
+                            continue
+                        t, along = _segment_t(seg_world, s, ox, oy, dx, dy, best)
+                        if t >= 0.0:
+                            best, hit_seg, hit_circ, hit_along = t, s, -1, along
+                    for q in range(cell_circ_start[k], cell_circ_start[k + 1]):
+                        s = cell_circ[q]
+                        e = circ_entity[s]
+                        if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
+                            continue
+                        t = _circle_t(circ_world, s, ox, oy, dx, dy, best)
+                        if t >= 0.0:
+                            best, hit_seg, hit_circ = t, -1, s
+                    t_exit = min(t_next_i, t_next_j)
+                    if best <= t_exit:
+                        break
+                    if t_next_i < t_next_j:
+                        i += step_i
+                        t_next_i += t_delta_i
+                    else:
+                        j += step_j
+                        t_next_j += t_delta_j
+                    if i < 0 or j < 0 or i >= gnx or j >= gny:
+                        break
+
             distance[r] = best
-            hit_entity[r] = hit
             depth = best / view_range
-            if hit >= 0:
-                intensity = 1.0 - depth if eye_falloff[v] == FALLOFF_LINEAR else 1.0
-                image[r, 0] = ent_color[hit, 0] * intensity
-                image[r, 1] = ent_color[hit, 1] * intensity
-                image[r, 2] = ent_color[hit, 2] * intensity
+            image[r, 3] = depth
+            if hit_seg >= 0:
+                hit = seg_entity[hit_seg]
+            elif hit_circ >= 0:
+                hit = circ_entity[hit_circ]
             else:
+                hit_entity[r] = -1
                 image[r, 0] = 0.0
                 image[r, 1] = 0.0
                 image[r, 2] = 0.0
-            image[r, 3] = depth
+                continue
+            hit_entity[r] = hit
+            w = 0.0
+            kind = ent_texture_kind[hit]
+            if kind != 0:
+                px, py = ox + best * dx, oy + best * dy
+                if hit_circ >= 0:
+                    cb = circ_body[hit_circ]
+                    ref = pose[cb, 2] if cb >= 0 else circ_angle[hit_circ]
+                    ang = (
+                        math.atan2(py - circ_world[hit_circ, 1], px - circ_world[hit_circ, 0]) - ref
+                    )
+                    ang = ang - 2.0 * math.pi * math.floor(ang / (2.0 * math.pi))
+                    u = circ_world[hit_circ, 2] * ang
+                else:
+                    ex = seg_world[hit_seg, 2] - seg_world[hit_seg, 0]
+                    ey = seg_world[hit_seg, 3] - seg_world[hit_seg, 1]
+                    u = seg_u0[hit_seg] + hit_along * math.sqrt(ex * ex + ey * ey)
+                tex = ent_texture[hit]
+                w = shade(kind, tex[0], tex[1], tex[2], u, px, py)
+            intensity = 1.0 - depth if eye_falloff[v] == FALLOFF_LINEAR else 1.0
+            for ch in range(3):
+                colour = ent_colors[hit, ch] * (1.0 - w) + ent_colors[hit, 3 + ch] * w
+                image[r, ch] = min(colour, 1.0) * intensity
 
 
 def empty_work(n_seg: int, n_circ: int) -> tuple[np.ndarray, np.ndarray]:
     """Scratch arrays the kernel fills with the shapes each eye may see."""
     return np.zeros(max(n_seg, 1), np.int32), np.zeros(max(n_circ, 1), np.int32)
+
+
+def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells: int = 1024):
+    """A uniform grid over the fixed shapes: (grid, cell_seg_start, cell_seg,
+    cell_circ_start, cell_circ), each shape listed in every cell its bounding box meets."""
+    boxes = []
+    if seg_fixed.any():
+        s = seg_world[seg_fixed]
+        lo = np.minimum(s[:, :2], s[:, 2:])
+        hi = np.maximum(s[:, :2], s[:, 2:])
+        boxes.append(np.concatenate([lo, hi], axis=1))
+    if circ_fixed.any():
+        c = circ_world[circ_fixed]
+        boxes.append(np.concatenate([c[:, :2] - c[:, 2:3], c[:, :2] + c[:, 2:3]], axis=1))
+    if not boxes:
+        empty = np.zeros(2, np.int32)
+        return np.array([0.0, 0.0, 1.0, 1.0, 1.0]), empty, empty[:0], empty, empty[:0]
+    all_boxes = np.concatenate(boxes)
+    x0, y0 = all_boxes[:, 0].min() - 1.0, all_boxes[:, 1].min() - 1.0
+    x1, y1 = all_boxes[:, 2].max() + 1.0, all_boxes[:, 3].max() + 1.0
+    cell = max(math.sqrt((x1 - x0) * (y1 - y0) / target_cells), 1.0)
+    nx, ny = max(1, math.ceil((x1 - x0) / cell)), max(1, math.ceil((y1 - y0) / cell))
+    grid = np.array([x0, y0, cell, nx, ny], np.float64)
+
+    def cells_of(index_boxes):
+        per_cell = [[] for _ in range(nx * ny)]
+        for index, (bx0, by0, bx1, by1) in index_boxes:
+            i0, i1 = int((bx0 - x0) / cell), min(nx - 1, int((bx1 - x0) / cell))
+            j0, j1 = int((by0 - y0) / cell), min(ny - 1, int((by1 - y0) / cell))
+            for j in range(j0, j1 + 1):
+                for i in range(i0, i1 + 1):
+                    per_cell[j * nx + i].append(index)
+        start = np.zeros(nx * ny + 1, np.int32)
+        start[1:] = np.cumsum([len(c) for c in per_cell])
+        flat = np.array([s for c in per_cell for s in c], np.int32)
+        return start, flat
+
+    seg_boxes = zip(np.flatnonzero(seg_fixed), boxes[0] if seg_fixed.any() else [])
+    circ_boxes = zip(np.flatnonzero(circ_fixed), boxes[-1] if circ_fixed.any() else [])
+    seg_start, segs = cells_of(seg_boxes)
+    circ_start, circs = cells_of(circ_boxes)
+    return grid, seg_start, segs, circ_start, circs

@@ -23,8 +23,7 @@ class Sensors:
         self.eye_body = np.array([geo.body_row[b.index] for b in bodies], np.int32)
         self.eye_local = np.zeros((len(bodies), 3), np.float64)
         self.eye_owner = np.array([b.owner for b in bodies], np.int32)
-        self.eye_range = np.array([c.spec.range for c in cameras], np.float64)
-        self.eye_half_fov = np.array([c.half_fov for c in cameras], np.float64)
+        self.eye_view = np.array([(c.spec.range, c.half_fov) for c in cameras], np.float64)
         self.eye_falloff = np.array([c.falloff for c in cameras], np.int32)
         self.eye_rays = starts.astype(np.int32)
         angles = np.concatenate([c.angles for c in cameras])
@@ -41,21 +40,31 @@ class Sensors:
         kernel.observe(
             g.pose,
             g.seg_local,
+            g.seg_world,
             g.seg_body,
             g.seg_entity,
-            g.seg_world,
+            g.seg_u0,
             g.circ_local,
+            g.circ_world,
             g.circ_body,
             g.circ_entity,
-            g.circ_world,
+            g.circ_angle,
+            g.loose_seg,
+            g.loose_circ,
+            g.grid,
+            g.cell_seg_start,
+            g.cell_seg,
+            g.cell_circ_start,
+            g.cell_circ,
             g.ent_owner,
             g.ent_visible,
-            g.ent_color,
+            g.ent_colors,
+            g.ent_texture,
+            g.ent_texture_kind,
             self.eye_body,
             self.eye_local,
             self.eye_owner,
-            self.eye_range,
-            self.eye_half_fov,
+            self.eye_view,
             self.eye_falloff,
             self.eye_rays,
             self.ray_dir,

@@ -5,9 +5,9 @@ from __future__ import annotations
 import pymunk
 
 from flatland_ma.scenario.schema import PhysicsSpec
-from flatland_ma.world.entities import CollisionType, Entity
+from flatland_ma.world.entities import Category, CollisionType, Entity
 
-_EVERYTHING = pymunk.ShapeFilter()
+_SOLID_OR_ITEM = pymunk.ShapeFilter(mask=Category.EVERYTHING)
 
 
 class World:
@@ -25,10 +25,12 @@ class World:
         self.entity_of_shape: dict[pymunk.Shape, Entity] = {}
         self.contacts: list[tuple[Entity, Entity]] = []
         """(agent entity, item entity) pairs that began touching during the last step."""
-        self.space.on_collision(CollisionType.AGENT, CollisionType.ITEM, begin=self._on_touch)
-        self.space.on_collision(
-            CollisionType.AGENT, None, begin=self._on_agent_contact, separate=self._on_agent_release
-        )
+        self.door_touches: list[tuple[Entity, Entity]] = []
+        """(agent entity, door entity) pairs that began touching during the last step."""
+        on = self.space.on_collision
+        on(CollisionType.AGENT, CollisionType.ITEM, begin=self._on_item)
+        on(CollisionType.AGENT, CollisionType.DOOR, begin=self._on_door)
+        on(CollisionType.AGENT, None, begin=self._on_agent_contact, separate=self._on_agent_release)
 
     def add(self, entity: Entity) -> Entity:
         entity.index = len(self.entities)
@@ -40,16 +42,46 @@ class World:
         self.space.add(*entity.aux_bodies, *entity.shapes, *entity.constraints)
         return entity
 
+    def withdraw(self, entity: Entity) -> None:
+        """Take an entity's shapes out of the physics (it stays listed, hidden)."""
+        entity.visible = False
+        present = [s for s in entity.shapes if s.space is not None]
+        if present:
+            self.space.remove(*present)
+
+    def restore(self, entity: Entity) -> None:
+        """Put a withdrawn entity's shapes back."""
+        entity.visible = True
+        absent = [s for s in entity.shapes if s.space is None]
+        if absent:
+            self.space.add(*absent)
+
+    def retire(self, entity: Entity) -> None:
+        """Take an entity out of the physics for good (e.g. an agent whose episode ended)."""
+        self.withdraw(entity)
+        present = set(self.space.constraints)
+        parts = [c for c in entity.constraints if c in present]
+        parts += [b for b in (entity.body, *entity.aux_bodies) if b.space is not None]
+        if parts:
+            self.space.remove(*parts)
+
     def step(self) -> None:
         """Advance one environment step: ``substeps`` pymunk steps."""
         self.contacts.clear()
+        self.door_touches.clear()
         step, dt = self.space.step, self.substep_dt
         for _ in range(self.substeps):
             step(dt)
 
-    def _on_touch(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
+    def _on_item(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         agent_shape, item_shape = arbiter.shapes
         self.contacts.append((self.entity_of_shape[agent_shape], self.entity_of_shape[item_shape]))
+
+    def _on_door(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
+        agent_shape, door_shape = arbiter.shapes
+        self.door_touches.append(
+            (self.entity_of_shape[agent_shape], self.entity_of_shape[door_shape])
+        )
 
     def _on_agent_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         self._count_contact(arbiter, +1)
@@ -71,7 +103,7 @@ class World:
         width, height = self.size
         if not (radius <= x <= width - radius and radius <= y <= height - radius):
             return False
-        return not self.space.point_query((x, y), radius, _EVERYTHING)
+        return not self.space.point_query((x, y), radius, _SOLID_OR_ITEM)
 
     def move_static(self, entity: Entity, x: float, y: float) -> None:
         """Move a static or kinematic entity (e.g. a respawned item)."""

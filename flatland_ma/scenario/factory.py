@@ -1,0 +1,172 @@
+"""Scenario pieces made physical: pymunk bodies and shapes wrapped in entities."""
+
+from __future__ import annotations
+
+import math
+
+import pymunk
+
+from flatland_ma.scenario.layout import DoorPiece, WallPiece
+from flatland_ma.scenario.schema import ArenaSpec, ItemSpec
+from flatland_ma.world.entities import (
+    Category,
+    CollisionType,
+    Door,
+    Item,
+    Obstacle,
+    Wall,
+    shape_filter,
+)
+
+FLOOR_GRAVITY = 1000.0
+"""Units per second squared: turns ``floor_friction`` into a sliding resistance force."""
+WALL_FRICTION = 0.5
+HINGE_FRICTION = 2000.0
+"""Torque that resists a hinged door's swing (so it stays where it was pushed)."""
+
+
+def make_arena_walls(arena: ArenaSpec) -> Wall:
+    """Four boxes around the playing area [0, width] x [0, height], outside it."""
+    w, h = arena.size
+    t = arena.wall.thickness
+    body = pymunk.Body(body_type=pymunk.Body.STATIC)
+    boxes = [
+        [(-t, -t), (w + t, -t), (w + t, 0), (-t, 0)],
+        [(-t, h), (w + t, h), (w + t, h + t), (-t, h + t)],
+        [(-t, 0), (0, 0), (0, h), (-t, h)],
+        [(w, 0), (w + t, 0), (w + t, h), (w, h)],
+    ]
+    shapes = tuple(_wall_shape(pymunk.Poly(body, corners)) for corners in boxes)
+    return Wall(body=body, shapes=shapes, color=arena.wall.color, texture=arena.wall.texture)
+
+
+def _wall_shape(shape: pymunk.Shape) -> pymunk.Shape:
+    shape.collision_type = CollisionType.WALL
+    shape.filter = shape_filter(Category.WALL)
+    shape.friction = WALL_FRICTION
+    return shape
+
+
+def _panel(start, end, thickness) -> tuple[tuple[float, float], float, list]:
+    """A box along ``start``-``end``: (position of start, angle, vertices around start)."""
+    (x0, y0), (x1, y1) = start, end
+    length = math.hypot(x1 - x0, y1 - y0)
+    angle = math.atan2(y1 - y0, x1 - x0)
+    h = thickness / 2
+    return (x0, y0), angle, [(0.0, -h), (length, -h), (length, h), (0.0, h)]
+
+
+def wall_corners(piece: WallPiece) -> list[tuple[float, float]]:
+    """The four corners of a wall piece's box in world coordinates, counter-clockwise."""
+    (x0, y0), (x1, y1) = piece.start, piece.end
+    length = math.hypot(x1 - x0, y1 - y0)
+    ux, uy = (x1 - x0) / length, (y1 - y0) / length
+    nx, ny = -uy * piece.thickness / 2, ux * piece.thickness / 2
+    return [(x0 - nx, y0 - ny), (x1 - nx, y1 - ny), (x1 + nx, y1 + ny), (x0 + nx, y0 + ny)]
+
+
+def make_walls(pieces: list[WallPiece], static_body: pymunk.Body) -> list[Wall]:
+    """One wall entity per look (colour and texture), its boxes on the space's static body."""
+    looks: dict = {}
+    for piece in pieces:
+        key = (piece.color, None if piece.texture is None else piece.texture.model_dump_json())
+        looks.setdefault(key, []).append(piece)
+    walls = []
+    for group in looks.values():
+        shapes = tuple(_wall_shape(pymunk.Poly(static_body, wall_corners(p))) for p in group)
+        walls.append(
+            Wall(body=static_body, shapes=shapes, color=group[0].color, texture=group[0].texture)
+        )
+    return walls
+
+
+def make_door(piece: DoorPiece, space: pymunk.Space) -> Door:
+    spec = piece.spec
+    position, angle, verts = _panel(piece.start, piece.end, piece.thickness)
+    if spec.kind == "hinged":
+        # A little short of the gap, so it swings free of the walls at both ends.
+        length = verts[1][0] - 1.0
+        h = piece.thickness * 0.4
+        verts = [(0.5, -h), (length, -h), (length, h), (0.5, h)]
+        body = pymunk.Body(spec.mass, pymunk.moment_for_poly(spec.mass, verts))
+        body.position, body.angle = position, angle
+        hinge = pymunk.PivotJoint(space.static_body, body, position)
+        swing = math.radians(spec.swing)
+        limit = pymunk.RotaryLimitJoint(space.static_body, body, angle - swing, angle + swing)
+        friction = pymunk.GearJoint(space.static_body, body, 0.0, 1.0)
+        friction.max_bias = 0.0
+        friction.max_force = HINGE_FRICTION
+        constraints = (hinge, limit, friction)
+    else:
+        body = pymunk.Body(body_type=pymunk.Body.STATIC)
+        body.position, body.angle = position, angle
+        constraints = ()
+    shape = pymunk.Poly(body, verts)
+    shape.collision_type = CollisionType.DOOR
+    # Doors pass through walls: a hinged panel must swing free of the wall it sits in.
+    shape.filter = shape_filter(Category.DOOR, ignores=Category.WALL)
+    shape.friction = WALL_FRICTION
+    return Door(
+        body=body,
+        shapes=(shape,),
+        color=spec.color,
+        texture=spec.texture,
+        constraints=constraints,
+        spec=spec,
+        path=piece.path,
+        closed_angle=angle,
+    )
+
+
+def make_obstacle(spec, space: pymunk.Space) -> Obstacle:
+    vertices = spec.local_vertices()
+    if spec.movable:
+        if vertices is None:
+            moment = pymunk.moment_for_circle(spec.mass, 0.0, spec.radius)
+        else:
+            moment = pymunk.moment_for_poly(spec.mass, vertices)
+        body = pymunk.Body(spec.mass, moment)
+    else:
+        body = pymunk.Body(body_type=pymunk.Body.STATIC)
+    body.position = spec.position
+    body.angle = math.radians(spec.angle)
+    shape = pymunk.Circle(body, spec.radius) if vertices is None else pymunk.Poly(body, vertices)
+    shape.collision_type = CollisionType.OBSTACLE
+    shape.filter = shape_filter(Category.OBSTACLE)
+    shape.friction = spec.friction
+    shape.elasticity = spec.elasticity
+    constraints = ()
+    if spec.movable and spec.floor_friction > 0:
+        force = spec.floor_friction * spec.mass * FLOOR_GRAVITY
+        slide = pymunk.PivotJoint(space.static_body, body, (0.0, 0.0), (0.0, 0.0))
+        spin = pymunk.GearJoint(space.static_body, body, 0.0, 1.0)
+        slide.max_bias = spin.max_bias = 0.0
+        slide.max_force = force
+        spin.max_force = force * spec.bounding_radius() * 0.5
+        constraints = (slide, spin)
+    return Obstacle(
+        body=body,
+        shapes=(shape,),
+        color=spec.color,
+        texture=spec.texture,
+        constraints=constraints,
+    )
+
+
+def make_item(spec: ItemSpec, group: int, x: float, y: float, home=None) -> Item:
+    body = pymunk.Body(body_type=pymunk.Body.STATIC)
+    body.position = (x, y)
+    shape = pymunk.Circle(body, spec.radius)
+    shape.sensor = True
+    shape.collision_type = CollisionType.ITEM
+    shape.filter = shape_filter(Category.ITEM)
+    return Item(
+        body=body,
+        shapes=(shape,),
+        color=spec.color,
+        texture=spec.texture,
+        group=group,
+        reward=spec.reward,
+        radius=spec.radius,
+        home=home,
+    )

@@ -1,0 +1,138 @@
+"""Things in the world: obstacles of several shapes, and items that agents touch."""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from flatland_ma.scenario.types import (
+    Color,
+    Flag,
+    Name,
+    NonNegative,
+    Positive,
+    Real,
+    Rect,
+    Size2,
+    Spec,
+    TextureSpec,
+    UnitInterval,
+    Vec2,
+    int_range,
+)
+
+
+class ObstacleBase(Spec):
+    position: Vec2
+    """Centre of the obstacle, in arena coordinates (origin at the bottom-left corner)."""
+    angle: Real = 0.0
+    """Rotation in degrees, counter-clockwise."""
+    color: Color = "darkgray"
+    texture: TextureSpec | None = None
+    """A texture instead of the plain colour."""
+    movable: Flag = False
+    """Movable obstacles are dynamic bodies that agents can push."""
+    mass: Positive = 10.0
+    friction: NonNegative = 0.5
+    """Surface (Coulomb) friction against agents and other obstacles."""
+    elasticity: UnitInterval = 0.0
+    floor_friction: NonNegative = 0.5
+    """Resistance to sliding on the floor, for movable obstacles (force = this x mass x g)."""
+
+    def local_vertices(self) -> list[tuple[float, float]] | None:
+        """Polygon vertices around the centre, counter-clockwise; None for a circle."""
+        return None
+
+
+class CircleObstacle(ObstacleBase):
+    shape: Literal["circle"]
+    radius: Positive
+
+    def bounding_radius(self) -> float:
+        return self.radius
+
+
+class BoxObstacle(ObstacleBase):
+    shape: Literal["box"]
+    size: Size2
+    """Width and height before rotation."""
+
+    def local_vertices(self) -> list[tuple[float, float]]:
+        w, h = self.size[0] / 2.0, self.size[1] / 2.0
+        return [(-w, -h), (w, -h), (w, h), (-w, h)]
+
+    def bounding_radius(self) -> float:
+        return math.hypot(self.size[0], self.size[1]) / 2.0
+
+
+class PolygonObstacle(ObstacleBase):
+    shape: Literal["polygon"]
+    vertices: Annotated[tuple[Vec2, ...], Field(min_length=3, max_length=32)]
+    """Vertices relative to ``position``; the polygon must be convex."""
+
+    @model_validator(mode="after")
+    def _convex(self):
+        if not is_convex(self.vertices):
+            raise ValueError("vertices must form a convex polygon with non-zero area")
+        return self
+
+    def local_vertices(self) -> list[tuple[float, float]]:
+        pts = list(self.vertices)
+        return pts if polygon_area(pts) > 0 else pts[::-1]
+
+    def bounding_radius(self) -> float:
+        return max(math.hypot(x, y) for x, y in self.vertices)
+
+
+Obstacle = Annotated[CircleObstacle | BoxObstacle | PolygonObstacle, Field(discriminator="shape")]
+
+
+class ItemSpec(Spec):
+    name: Name
+    """Name of the group; each agent's ``infos`` count how many of it the agent took."""
+    color: Color
+    texture: TextureSpec | None = None
+    reward: Real = 0.0
+    """Reward to the agent that touches one."""
+    count: int_range(0, 10_000) = 1
+    """How many lie in the arena at once (ignored when ``positions`` is given)."""
+    radius: Positive = 6.0
+    spawn: Rect | None = None
+    """Where they appear, at free places that agents can reach; None: the whole arena."""
+    positions: tuple[Vec2, ...] | None = None
+    """Fixed places instead of random ones (one item at each)."""
+    respawn: Literal["immediate", "never"] | int_range(1, 1_000_000) = "immediate"
+    """After one is taken: ``immediate``ly at a new random place, ``never``, or after this
+    many steps. Items with fixed positions reappear where they were."""
+    terminal: Flag = False
+    """Taking one ends the episode of the agent that took it (a goal)."""
+    key: Flag = False
+    """A key: the agent that takes one holds it (``infos[agent]["keys"]``), and doors
+    whose ``key`` names this group open to it."""
+
+    @property
+    def n_items(self) -> int:
+        return len(self.positions) if self.positions is not None else self.count
+
+
+def polygon_area(pts) -> float:
+    """Signed area: positive when the vertices run counter-clockwise."""
+    n = len(pts)
+    return 0.5 * sum(
+        pts[i][0] * pts[(i + 1) % n][1] - pts[(i + 1) % n][0] * pts[i][1] for i in range(n)
+    )
+
+
+def is_convex(pts) -> bool:
+    n = len(pts)
+    signs = set()
+    for i in range(n):
+        ax, ay = pts[i]
+        bx, by = pts[(i + 1) % n]
+        cx, cy = pts[(i + 2) % n]
+        cross = (bx - ax) * (cy - by) - (by - ay) * (cx - bx)
+        if abs(cross) > 1e-9:
+            signs.add(cross > 0)
+    return len(signs) == 1 and abs(polygon_area(pts)) > 1e-6

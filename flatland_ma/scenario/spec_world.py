@@ -1,0 +1,227 @@
+"""The layout: the arena, walls, rooms, corridors, doors, zones and generated layouts."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from flatland_ma.scenario.types import (
+    Color,
+    Flag,
+    Name,
+    NonNegative,
+    Positive,
+    Real,
+    Rect,
+    Size2,
+    Spec,
+    TextureSpec,
+    UnitInterval,
+    Vec2,
+    int_range,
+)
+
+
+class WallStyle(Spec):
+    thickness: Positive = 10.0
+    color: Color = "gray"
+    texture: TextureSpec | None = None
+
+
+class ArenaSpec(Spec):
+    size: Size2 = (300.0, 300.0)
+    """Width and height of the playing area; its boundary walls lie outside it."""
+    wall: WallStyle = WallStyle()
+    """Style of the boundary walls; also the default of every other wall."""
+    floor_color: Color = "beige"
+    """Only drawn by the renderer; rays never see the floor."""
+
+
+class WallSpec(Spec):
+    """A straight wall from ``start`` to ``end`` (its centre line), of some thickness."""
+
+    start: Vec2
+    end: Vec2
+    thickness: Positive | None = None
+    """None: the arena's wall thickness."""
+    color: Color | None = None
+    texture: TextureSpec | None = None
+
+    @model_validator(mode="after")
+    def _has_length(self):
+        if self.start == self.end:
+            raise ValueError("a wall needs distinct start and end points")
+        return self
+
+
+class DoorSpec(Spec):
+    """A door. In an opening it fills the gap; on its own it spans ``start`` to ``end``.
+
+    Sliding doors are solid panels that vanish when opened: a ``closed`` one opens when an
+    agent touches it, a ``locked`` one when an agent holding its ``key`` touches it; with a
+    ``switch`` it opens while an agent stands in that zone (for good, if ``latch``).
+    Hinged doors swing on a hinge at their start when pushed, up to ``swing`` degrees
+    either way.
+    """
+
+    name: Name | None = None
+    kind: Literal["sliding", "hinged"] = "sliding"
+    state: Literal["closed", "locked", "open"] = "closed"
+    key: Name | None = None
+    """The item group (with ``key: true``) that opens this door."""
+    switch: Name | None = None
+    """A zone that opens this door while an agent stands in it."""
+    latch: Flag = True
+    """A switched door stays open once opened."""
+    swing: Annotated[float, Field(strict=True, gt=0, le=180)] = 100.0
+    mass: Positive = 4.0
+    start: Vec2 | None = None
+    end: Vec2 | None = None
+    thickness: Positive | None = None
+    color: Color = "brown"
+    texture: TextureSpec | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.state == "locked" and self.key is None and self.switch is None:
+            raise ValueError("a locked door needs a 'key' or a 'switch' to open it")
+        if self.kind == "hinged" and (self.key or self.switch or self.state != "closed"):
+            raise ValueError("a hinged door is pushed open: no key, switch or state")
+        if (self.start is None) != (self.end is None) or (self.start and self.start == self.end):
+            raise ValueError("give both 'start' and 'end' (distinct), or neither")
+        return self
+
+
+class OpeningSpec(Spec):
+    """A gap in one side of a room, optionally filled by a door."""
+
+    side: Literal["north", "south", "east", "west"]
+    offset: Real | None = None
+    """Distance of the gap's centre from the side's west (north and south sides) or south
+    (east and west sides) end; None: the middle."""
+    width: Positive = 40.0
+    door: DoorSpec | None = None
+
+
+class RoomSpec(Spec):
+    """A rectangle of walls whose centre lines run along ``rect``'s edges."""
+
+    name: Name | None = None
+    rect: Rect
+    openings: tuple[OpeningSpec, ...] = ()
+    thickness: Positive | None = None
+    color: Color | None = None
+    texture: TextureSpec | None = None
+
+
+class CorridorSpec(Spec):
+    """A straight, axis-parallel passage: a wall on each side of the centre line from
+    ``start`` to ``end``; room walls across its ends are opened."""
+
+    start: Vec2
+    end: Vec2
+    width: Positive = 40.0
+    thickness: Positive | None = None
+    color: Color | None = None
+    texture: TextureSpec | None = None
+
+    @model_validator(mode="after")
+    def _axis_parallel(self):
+        (x0, y0), (x1, y1) = self.start, self.end
+        if (x0 != x1) == (y0 != y1):
+            raise ValueError("a corridor runs either horizontally or vertically")
+        return self
+
+
+class ZoneSpec(Spec):
+    """An area of floor: rewards, punishes, ends the episode or moves agents on entry,
+    and can work a door's switch. Rays do not see zones; the renderer paints them."""
+
+    name: Name | None = None
+    rect: Rect | None = None
+    """Where the zone is. None: a ``size`` rectangle placed at random in ``area`` at each
+    reset (on free floor the agents can reach), fixed for the episode."""
+    size: Size2 | None = None
+    area: Rect | None = None
+    """Where a randomly placed zone may lie; None: the whole arena."""
+    reward: Real = 0.0
+    """Reward to an agent each time its centre enters the zone."""
+    once: Flag = False
+    """Reward an agent only on its first entry in an episode."""
+    terminal: Flag = False
+    """Entering ends the agent's episode."""
+    teleport: Flag = False
+    """Entering moves the agent to a random start place (after the reward)."""
+    color: Color | None = None
+    """Floor paint in pictures; None: not drawn."""
+
+    @model_validator(mode="after")
+    def _placed(self):
+        if (self.rect is None) == (self.size is None):
+            raise ValueError("give a zone either a 'rect', or a 'size' to place it at random")
+        if self.area is not None and self.size is None:
+            raise ValueError("'area' is for zones placed at random (with 'size')")
+        return self
+
+
+class GridRoomsSpec(Spec):
+    """``rows`` x ``cols`` equal rooms filling the arena, with one opening at a random place
+    in every wall two rooms share (so every room is reachable)."""
+
+    generator: Literal["grid_rooms"]
+    rows: int_range(1, 30) = 2
+    cols: int_range(1, 30) = 2
+    door_width: Positive = 40.0
+    doors: Literal["none", "closed", "hinged"] = "none"
+    """What fills the openings: nothing, sliding doors that open on touch, hinged doors."""
+    thickness: Positive | None = None
+    color: Color | None = None
+    texture: TextureSpec | None = None
+
+
+class MazeSpec(Spec):
+    """A perfect maze (one path between any two cells) of square cells over the arena;
+    ``loops`` > 0 removes that fraction of the remaining inner walls at random."""
+
+    generator: Literal["maze"]
+    cell: Positive = 50.0
+    loops: UnitInterval = 0.0
+    thickness: Positive | None = None
+    color: Color | None = None
+    texture: TextureSpec | None = None
+
+
+class RandomObstaclesSpec(Spec):
+    """Obstacles scattered at random, never overlapping anything, never cutting off a
+    part of the arena from the agents."""
+
+    generator: Literal["random_obstacles"]
+    count: int_range(1, 500) = 10
+    shapes: Annotated[
+        tuple[Literal["circle", "box", "triangle", "pentagon"], ...], Field(min_length=1)
+    ] = ("circle", "box", "triangle", "pentagon")
+    size: tuple[Positive, Positive] = (15.0, 40.0)
+    """Smallest and largest diameter."""
+    colors: Annotated[tuple[Color, ...], Field(min_length=1)] = (
+        "green",
+        "cyan",
+        "yellow",
+        "white",
+    )
+    gap: NonNegative = 25.0
+    """Least clearance around each obstacle, so that agents can pass between them."""
+
+
+Generator = Annotated[
+    GridRoomsSpec | MazeSpec | RandomObstaclesSpec, Field(discriminator="generator")
+]
+
+
+class LayoutSpec(Spec):
+    generators: tuple[Generator, ...] = ()
+    """Applied in order over the explicit walls, rooms and obstacles."""
+    per_episode: Flag = True
+    """True: a new layout at every reset, drawn from the env's generator. False: one layout
+    for every episode, drawn from ``seed``."""
+    seed: int_range(0, 2**31 - 1) = 0

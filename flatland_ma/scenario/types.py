@@ -1,0 +1,63 @@
+"""Value types shared by the scenario models: numbers, points, rectangles, colours,
+names and textures."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+
+from flatland_ma.scenario.colors import parse_color
+
+Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+Positive = Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(strict=True, ge=0, allow_inf_nan=False)]
+UnitInterval = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)]
+Flag = Annotated[bool, Field(strict=True)]
+Vec2 = tuple[Real, Real]
+Size2 = tuple[Positive, Positive]
+Color = Annotated[tuple[float, float, float], BeforeValidator(parse_color)]
+Name = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
+
+
+def _ordered(rect: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    x0, y0, x1, y1 = rect
+    if not (x1 > x0 and y1 > y0):
+        raise ValueError(f"rectangle {list(rect)} must be [x0, y0, x1, y1] with x1 > x0, y1 > y0")
+    return rect
+
+
+Rect = Annotated[tuple[Real, Real, Real, Real], AfterValidator(_ordered)]
+"""An axis-aligned rectangle ``[x0, y0, x1, y1]`` (lower-left, then upper-right corner)."""
+
+
+def int_range(lo: int, hi: int):
+    return Annotated[int, Field(strict=True, ge=lo, le=hi)]
+
+
+class Spec(BaseModel):
+    """Base of every scenario model: frozen, and unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+class TextureSpec(Spec):
+    """How a surface's colour varies along it (what a ray sees depends on where it hits).
+
+    ``u`` is the distance along the surface: around a polygon from its first vertex,
+    around a circle from its body's heading; textures turn with their bodies.
+    """
+
+    kind: Literal["uniform", "stripes", "tiles", "checkers", "gradient", "noise"] = "uniform"
+    """uniform: the first colour. stripes: bands along u, ``duty`` of each period in the
+    first colour. tiles: tiles of the first colour separated by grout lines of the second,
+    ``duty`` of each period being grout. checkers: a checkerboard of squares of side
+    ``period`` fixed in the world (x, y), not on the surface. gradient: from the first
+    colour to the second and back over ``2 * period``. noise: cells of length ``period``,
+    each a random mix of the two colours drawn from ``seed``."""
+    colors: tuple[Color, Color] = ("white", "black")
+    period: Positive = 10.0
+    """Length in world units of one stripe pair, tile, checker square, gradient ramp or
+    noise cell."""
+    duty: UnitInterval = 0.5
+    seed: int_range(0, 2**31 - 1) = 0
