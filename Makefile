@@ -32,6 +32,10 @@ bench: $(STAMP)
 docs: $(STAMP)
 	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif
 	$(BIN)/flatland-ma record fruits_poisons_multi --steps 120 --seed 3 --out docs/images/fruits_poisons_multi.png
+	for s in $$($(BIN)/python -c "import flatland_ma; print(' '.join(flatland_ma.list_scenarios()))"); do \
+		$(BIN)/flatland-ma record $$s --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$$s.png || exit 1; \
+	done
+	$(BIN)/python -m flatland_ma.scenario.reference > docs/scenarios.md
 
 lint: $(STAMP)
 	$(BIN)/ruff check flatland_ma tests

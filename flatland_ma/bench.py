@@ -84,10 +84,16 @@ def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:
     return steps / (time.perf_counter() - start)
 
 
+LARGEST = "maze_large"
+"""The biggest layout in the library: its rate shows what large worlds cost."""
+
+
 def run(steps: int = 20_000) -> list[BenchResult]:
     return [
         bench_gym("fruits_poisons", steps),
         bench_parallel("fruits_poisons_multi", steps),
+        bench_gym(LARGEST, steps),
+        bench_parallel("forage_rooms_multi", steps),
     ]
 
 
@@ -104,6 +110,7 @@ def format_table(results: list[BenchResult]) -> str:
         )
     lines.append(
         "bare space.step/s: environment-step equivalents (substeps x space.step) per second "
-        "on the same world."
+        "on the same world. Rates include resets (a new layout each episode where the "
+        "scenario asks for one)."
     )
     return "\n".join(lines)

@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
         "record", help="write a GIF (and a PNG of its middle frame), or only a PNG, of play"
     )
     record.add_argument("scenario")
-    record.add_argument("--policy", choices=["greedy", "random"], default="greedy")
+    record.add_argument("--policy", choices=["greedy", "planner", "random"], default="greedy")
     record.add_argument("--steps", type=int, default=300)
     record.add_argument("--every", type=int, default=2, help="keep one frame in this many")
     record.add_argument("--seed", type=int, default=0)
@@ -118,15 +118,17 @@ def _record(args) -> int:
 
 def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
-    from flatland_ma.policies import GreedyForager, RandomPolicy
+    from flatland_ma.policies import GreedyForager, PlannerPolicy, RandomPolicy
     from flatland_ma.render.video import save_gif, save_png
 
     env = FlatlandParallelEnv(scenario, render_mode="rgb_array")
     observations, _ = env.reset(seed=seed)
-    if policy == "greedy":
-        agents = {a: GreedyForager(env.spec) for a in env.possible_agents}
-    else:
-        agents = {a: RandomPolicy(env.action_space(a), seed=seed) for a in env.possible_agents}
+    makers = {
+        "greedy": lambda a: GreedyForager(env.spec),
+        "planner": lambda a: PlannerPolicy(env, a),
+        "random": lambda a: RandomPolicy(env.action_space(a), seed=seed),
+    }
+    agents = {a: makers[policy](a) for a in env.possible_agents}
     gif = out.suffix.lower() != ".png"
     frames = [env.render()]
     for t in range(steps):

@@ -40,17 +40,22 @@ def cast(
     eye_owner=-1,
     grid=True,
     cells=64,
+    textures=None,
 ):
     """Cast rays at ``angles`` (radians, relative to the eye heading).
 
-    Entities are numbered polygons first, then circles. Returns (distance, entity, image).
+    Entities are numbered polygons first, then circles. ``textures``: per entity None or
+    (kind, period, duty, seed, second colour). Returns (distance, entity, image).
     """
-    segs, seg_entity, seg_body = [], [], []
+    segs, seg_entity, seg_body, seg_u0 = [], [], [], []
     for e, corners in enumerate(polygons):
+        run = 0.0
         for row in edges(corners):
             segs.append(row)
             seg_entity.append(e)
             seg_body.append(-1 if polygon_bodies is None else polygon_bodies[e])
+            seg_u0.append(run)
+            run += math.hypot(row[2] - row[0], row[3] - row[1])
     circ, circ_entity, circ_body = [], [], []
     for k, c in enumerate(circles):
         circ.append(c)
@@ -68,6 +73,12 @@ def cast(
     if colors is None:
         colors = [(1.0, 1.0, 1.0)] * n_ent
     colors = np.array(colors, np.float32).reshape(-1, 3)
+    second = colors.copy()
+    tex = np.zeros((n_ent, 3))
+    tex_kind = np.zeros(n_ent, np.int32)
+    for e, t in enumerate(textures or [None] * n_ent):
+        if t is not None:
+            tex_kind[e], tex[e], second[e] = t[0], t[1:4], t[4]
     # Shapes on no body are fixed: binned in the grid unless ``grid=False``.
     seg_fixed = (np.array(seg_body) < 0) & grid if len(seg_body) else np.zeros(0, bool)
     circ_fixed = (np.array(circ_body) < 0) & grid if len(circ_body) else np.zeros(0, bool)
@@ -78,7 +89,7 @@ def cast(
         seg_local.copy(),
         np.array(seg_body, np.int32),
         np.array(seg_entity, np.int32),
-        np.zeros(len(seg_local)),
+        np.array(seg_u0, np.float64),
         circ_local,
         circ_local.copy(),
         np.array(circ_body, np.int32),
@@ -89,9 +100,9 @@ def cast(
         *binned,
         np.array(owners if owners is not None else [-1] * n_ent, np.int32),
         np.ones(n_ent, np.bool_),
-        np.concatenate([colors, colors], axis=1),
-        np.zeros((n_ent, 3)),
-        np.zeros(n_ent, np.int32),
+        np.concatenate([colors, second], axis=1),
+        tex,
+        tex_kind,
         np.array([eye_body], np.int32),
         np.array([eye], np.float64),
         np.array([eye_owner], np.int32),

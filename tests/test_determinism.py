@@ -43,10 +43,11 @@ def test_unseeded_resets_differ_but_continue_the_seeded_stream():
     np.testing.assert_array_equal(other.reset()[0]["agent_0"], second["agent_0"])
 
 
-def test_rollouts_match_across_processes():
+@pytest.mark.parametrize("scenario", ["fruits_poisons_multi", "maze_goal", "obstacle_forest"])
+def test_rollouts_match_across_processes(scenario):
     code = (
         "from tests.rollouts import rollout_digest;"
-        "print(rollout_digest('fruits_poisons_multi', seed=9, steps=700))"
+        f"print(rollout_digest({scenario!r}, seed=9, steps=700))"
     )
     digests = set()
     for hash_seed in ("1", "2"):
@@ -60,5 +61,5 @@ def test_rollouts_match_across_processes():
             check=True,
         )
         digests.add(out.stdout.strip())
-    digests.add(rollout_digest("fruits_poisons_multi", seed=9, steps=700))
+    digests.add(rollout_digest(scenario, seed=9, steps=700))
     assert len(digests) == 1

@@ -121,6 +121,123 @@ def test_unknown_key_names_file_line_path_and_suggests(tmp_path):
             "used twice",
         ),
         ("n_agents: 60\nagent:\n  radius: 40\n", 1, ("n_agents",), "no room to place every agent"),
+        # spawn areas outside the arena, or with no free room
+        (
+            "agent:\n  spawn: {area: [250, 250, 350, 350]}\n",
+            2,
+            ("agent", "spawn", "area"),
+            "outside the 300 x 300 arena",
+        ),
+        (
+            "items:\n  - {name: a, color: red, count: 2, spawn: [-10, 0, 50, 50]}\n",
+            2,
+            ("items", 0, "spawn"),
+            "outside",
+        ),
+        (
+            "zones:\n  - {size: [20, 20], area: [0, 0, 400, 50]}\n",
+            2,
+            ("zones", 0, "area"),
+            "outside",
+        ),
+        ("zones:\n  - {rect: [0, 0, 20, 20], size: [5, 5]}\n", 2, ("zones", 0), "either a 'rect'"),
+        ("rooms:\n  - {rect: [200, 200, 320, 280]}\n", 2, ("rooms", 0, "rect"), "outside"),
+        ("rooms:\n  - {rect: [200, 200, 100, 280]}\n", 2, ("rooms", 0, "rect"), "x1 > x0"),
+        (
+            "obstacles:\n  - {shape: box, position: [150, 150], size: [280, 280]}\n",
+            1,
+            ("arena", "size"),
+            "no free place where agents could start",
+        ),
+        (
+            "obstacles:\n  - {shape: circle, position: [50, 150], radius: 10}\nwalls:\n  - {start: [50, 0], end: [50, 300]}\n",
+            2,
+            ("obstacles", 0),
+            "overlaps a wall",
+        ),
+        # items nobody can reach
+        (
+            "walls:\n  - {start: [150, 0], end: [150, 300]}\nagent:\n  spawn: {area: [0, 0, 140, 300]}\nitems:\n  - {name: a, color: red, count: 1, spawn: [160, 0, 300, 300]}\n",
+            6,
+            ("items", 0, "spawn"),
+            "no free place in the area that agents can reach",
+        ),
+        (
+            "walls:\n  - {start: [150, 0], end: [150, 300]}\nagent:\n  spawn: {area: [0, 0, 140, 300]}\nitems:\n  - {name: a, color: red, positions: [[200, 150]]}\n",
+            6,
+            ("items", 0, "positions", 0),
+            "agents cannot reach",
+        ),
+        # doors, keys, switches
+        (
+            "doors:\n  - {start: [150, 0], end: [150, 40], state: locked}\n",
+            2,
+            ("doors", 0),
+            "needs a 'key' or a 'switch'",
+        ),
+        (
+            "doors:\n  - {start: [150, 0], end: [150, 40], state: locked, key: gold}\n",
+            2,
+            ("doors", 0, "key"),
+            "no item group 'gold'",
+        ),
+        (
+            "doors:\n  - {start: [150, 0], end: [150, 40], switch: plate}\n",
+            2,
+            ("doors", 0, "switch"),
+            "no zone named 'plate'",
+        ),
+        (
+            "doors:\n  - {kind: hinged, key: k, start: [150, 0], end: [150, 40]}\n",
+            2,
+            ("doors", 0),
+            "pushed open",
+        ),
+        ("doors:\n  - {state: closed}\n", 2, ("doors", 0), "needs 'start' and 'end'"),
+        (
+            "corridors:\n  - {start: [0, 0], end: [100, 100]}\n",
+            2,
+            ("corridors", 0),
+            "horizontally or vertically",
+        ),
+        ("walls:\n  - {start: [10, 10], end: [10, 10]}\n", 2, ("walls", 0), "distinct"),
+        (
+            "walls:\n  - {start: [100, 10], end: [100, 200], thickness: 0.5}\nagent:\n  max_speed: 800\n",
+            2,
+            ("walls", 0, "thickness"),
+            "can be crossed",
+        ),
+        ("items:\n  - {name: score, color: red}\n", 2, ("items", 0, "name"), "reserved"),
+        (
+            "episode:\n  end_when_eaten: gold\n",
+            2,
+            ("episode", "end_when_eaten"),
+            "no item group 'gold'",
+        ),
+        (
+            "layout:\n  generators:\n    - {generator: tunnels}\n",
+            3,
+            ("layout", "generators", 0),
+            "'tunnels'",
+        ),
+        (
+            "layout:\n  generators:\n    - {generator: maze, cel: 20}\n",
+            3,
+            ("layout", "generators", 0, "cel"),
+            "did you mean 'cell'",
+        ),
+        (
+            "layout:\n  generators:\n    - {generator: random_obstacles, count: 400, size: [40, 60]}\n",
+            3,
+            ("layout", "generators", 0, "count"),
+            "could not place 400 obstacles",
+        ),
+        (
+            "items:\n  - {name: a, color: red, texture: {kind: plaid}}\n",
+            2,
+            ("items", 0, "texture", "kind"),
+            "'uniform'",
+        ),
     ],
 )
 def test_faults_are_located(tmp_path, text, line, path, words):
@@ -271,3 +388,19 @@ def test_mangled_text_fails_only_with_scenario_errors(tmp_path, cut, junk):
         load_scenario(file)
     except ScenarioError as err:
         assert err.problems
+
+
+@pytest.mark.parametrize("document", ["README.md", "docs/scenarios.md"])
+def test_the_yaml_examples_in_the_docs_are_valid_scenarios(tmp_path, document):
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parent.parent / document).read_text()
+    blocks = re.findall(r"```yaml\n(.*?)```", text, re.S)
+    assert blocks
+    for k, block in enumerate(blocks):
+        path = tmp_path / f"example_{k}.yaml"
+        path.write_text(block)
+        env = flatland_ma.parallel_env(path)
+        env.reset(seed=0)
+        env.step({a: env.action_space(a).sample() for a in env.agents})

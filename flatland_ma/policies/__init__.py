@@ -1,6 +1,8 @@
-"""Policies that ship with the package: a scripted greedy forager and uniform random play."""
+"""Policies that ship with the package: a scripted greedy forager (from its observation
+only), a search-based planner (privileged: it reads the world), and uniform random play."""
 
 from flatland_ma.policies.greedy import GreedyForager
+from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy, evaluate
 
-__all__ = ["GreedyForager", "RandomPolicy", "evaluate"]
+__all__ = ["GreedyForager", "PlannerPolicy", "RandomPolicy", "evaluate"]

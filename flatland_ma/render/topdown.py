@@ -150,12 +150,14 @@ class Renderer:
                     r = shape.radius * self.scale * k
                     draw.ellipse((cx - r, cy - r, cx + r, cy + r), fill=fill, outline=(0, 0, 0))
                     outline = _circle_outline(shape)
+                    centre = body.local_to_world(shape.offset)
                 elif isinstance(shape, pymunk.Poly):
                     pts = [body.local_to_world(v) for v in shape.get_vertices()]
                     draw.polygon([px(p) for p in pts], fill=fill, outline=(0, 0, 0))
                     outline = _polygon_outline(pts)
+                    centre = None
                 if texture is not None and texture.kind != "uniform":
-                    self._draw_texture(draw, px, texture, outline)
+                    self._draw_texture(draw, px, texture, outline, centre)
 
         for body in episode.bodies:
             if not body.visible:
@@ -170,8 +172,9 @@ class Renderer:
             )
         return image.resize(self.map_size, Image.Resampling.LANCZOS)
 
-    def _draw_texture(self, draw, px, texture, outline) -> None:
-        """Paint the surface as rays see it: its texture along the outline."""
+    def _draw_texture(self, draw, px, texture, outline, centre) -> None:
+        """Paint the surface as rays see it: its texture along the outline (as thin bands
+        along a polygon's edges, as wedges of a circle)."""
         kind = KINDS[texture.kind]
         a, b = np.array(texture.colors[0]), np.array(texture.colors[1])
         width = max(2, int(round(1.5 * SUPERSAMPLE * self.scale)))
@@ -179,7 +182,10 @@ class Renderer:
             mid = ((p[0] + q[0]) / 2, (p[1] + q[1]) / 2)
             w = shade(kind, texture.period, texture.duty, texture.seed, u, mid[0], mid[1])
             colour = tuple(int(round(255 * c)) for c in a * (1 - w) + b * w)
-            draw.line([px(p), px(q)], fill=colour, width=width)
+            if centre is None:
+                draw.line([px(p), px(q)], fill=colour, width=width)
+            else:
+                draw.polygon([px(centre), px(p), px(q)], fill=colour)
 
     def show(self, frame: np.ndarray, fps: int) -> None:
         """Show a frame in the human window (opened on first use)."""

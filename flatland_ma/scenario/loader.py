@@ -247,8 +247,12 @@ def _data_path(loc: tuple, raw: Any) -> KeyPath:
     return tuple(path)
 
 
+TAG_KEYS = ("shape", "generator")
+"""Keys whose value picks the model of a mapping (pydantic puts it in error locations)."""
+
+
 def _is_tag(part: str, node: dict) -> bool:
-    return any(node.get(k) == part for k in ("shape", "kind", "type"))
+    return any(node.get(k) == part for k in TAG_KEYS)
 
 
 def _model_at(loc: tuple) -> type[BaseModel]:
@@ -280,7 +284,7 @@ def _inner_model(annotation: Any) -> Any:
 def _member_with_tag(union: Any, tag: str) -> Any:
     for member in typing.get_args(union):
         fields = getattr(member, "model_fields", {})
-        for name in ("shape", "kind", "type"):
+        for name in TAG_KEYS:
             if name in fields and tag in typing.get_args(fields[name].annotation):
                 return member
     return None

@@ -93,18 +93,31 @@ class ScenarioSpec(Spec):
     description: Annotated[str, Field(strict=True, max_length=200)] = ""
     """One line shown by ``flatland-ma list``."""
     n_agents: int_range(1, 64) = 1
+    """How many agents share the world (named agent_0, agent_1, ...)."""
     episode: EpisodeSpec = EpisodeSpec()
+    """Episode length and how episodes end."""
     physics: PhysicsSpec = PhysicsSpec()
+    """Time step and solver settings."""
     arena: ArenaSpec = ArenaSpec()
+    """The playing area and its boundary walls."""
     walls: tuple[WallSpec, ...] = ()
+    """Straight walls anywhere in the arena."""
     rooms: tuple[RoomSpec, ...] = ()
+    """Rectangles of walls, with openings."""
     corridors: tuple[CorridorSpec, ...] = ()
+    """Passages between walls; they open the room walls they run through."""
     doors: tuple[DoorSpec, ...] = ()
+    """Doors on their own (doors in room openings are given there)."""
     zones: tuple[ZoneSpec, ...] = ()
+    """Areas of floor that act when agents enter them."""
     layout: LayoutSpec = LayoutSpec()
+    """Generated walls and obstacles, drawn per episode or once."""
     obstacles: tuple[Obstacle, ...] = ()
+    """Obstacles at fixed places: circles, boxes, convex polygons."""
     items: tuple[ItemSpec, ...] = ()
+    """Groups of items that agents take by touching them."""
     agent: AgentSpec = AgentSpec()
+    """What every agent is: body, motor, camera, actions, start."""
 
     @model_validator(mode="after")
     def _cross_checks(self):

@@ -30,7 +30,9 @@ class SpawnSpec(Spec):
 
 class AgentSpec(Spec):
     radius: Positive = 10.0
+    """Agents are discs of this radius."""
     mass: Positive = 1.0
+    """Mass of an agent's body."""
     colors: Annotated[tuple[Color, ...], Field(min_length=1)] = (
         "blue",
         "red",
@@ -43,6 +45,8 @@ class AgentSpec(Spec):
     )
     """Agent i is drawn (and seen by other agents) in ``colors[i % len(colors)]``."""
     actions: Literal["discrete", "continuous"] = "discrete"
+    """``discrete``: Discrete(3) forward / rotate left / rotate right; ``continuous``:
+    Box(-1, 1, (3,)) longitudinal, lateral, angular."""
     max_speed: Positive = 200.0
     """Top linear speed, units per second."""
     max_turn_rate: Positive = 300.0
@@ -52,4 +56,6 @@ class AgentSpec(Spec):
     max_torque: Positive = 100_000.0
     """Largest torque the agent's motor applies to reach its commanded turn rate."""
     camera: CameraSpec = CameraSpec()
+    """The first-person camera."""
     spawn: SpawnSpec = SpawnSpec()
+    """Where and how agents start."""

@@ -30,14 +30,17 @@ class ObstacleBase(Spec):
     angle: Real = 0.0
     """Rotation in degrees, counter-clockwise."""
     color: Color = "darkgray"
+    """Colour of the obstacle."""
     texture: TextureSpec | None = None
     """A texture instead of the plain colour."""
     movable: Flag = False
     """Movable obstacles are dynamic bodies that agents can push."""
     mass: Positive = 10.0
+    """Mass of a movable obstacle."""
     friction: NonNegative = 0.5
     """Surface (Coulomb) friction against agents and other obstacles."""
     elasticity: UnitInterval = 0.0
+    """Bounciness of its surface (0: none, 1: perfectly elastic)."""
     floor_friction: NonNegative = 0.5
     """Resistance to sliding on the floor, for movable obstacles (force = this x mass x g)."""
 
@@ -48,7 +51,9 @@ class ObstacleBase(Spec):
 
 class CircleObstacle(ObstacleBase):
     shape: Literal["circle"]
+    """Selects a circle."""
     radius: Positive
+    """Its radius."""
 
     def bounding_radius(self) -> float:
         return self.radius
@@ -56,6 +61,7 @@ class CircleObstacle(ObstacleBase):
 
 class BoxObstacle(ObstacleBase):
     shape: Literal["box"]
+    """Selects a box."""
     size: Size2
     """Width and height before rotation."""
 
@@ -69,6 +75,7 @@ class BoxObstacle(ObstacleBase):
 
 class PolygonObstacle(ObstacleBase):
     shape: Literal["polygon"]
+    """Selects a convex polygon."""
     vertices: Annotated[tuple[Vec2, ...], Field(min_length=3, max_length=32)]
     """Vertices relative to ``position``; the polygon must be convex."""
 
@@ -93,12 +100,15 @@ class ItemSpec(Spec):
     name: Name
     """Name of the group; each agent's ``infos`` count how many of it the agent took."""
     color: Color
+    """Colour of the items."""
     texture: TextureSpec | None = None
+    """A texture instead of the plain colour."""
     reward: Real = 0.0
     """Reward to the agent that touches one."""
     count: int_range(0, 10_000) = 1
     """How many lie in the arena at once (ignored when ``positions`` is given)."""
     radius: Positive = 6.0
+    """Items are discs of this radius, taken on touch."""
     spawn: Rect | None = None
     """Where they appear, at free places that agents can reach; None: the whole arena."""
     positions: tuple[Vec2, ...] | None = None

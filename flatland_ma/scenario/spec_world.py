@@ -25,8 +25,11 @@ from flatland_ma.scenario.types import (
 
 class WallStyle(Spec):
     thickness: Positive = 10.0
+    """Thickness of the boundary walls (outside the playing area) and default of every wall."""
     color: Color = "gray"
+    """Colour of the walls."""
     texture: TextureSpec | None = None
+    """A texture instead of the plain colour."""
 
 
 class ArenaSpec(Spec):
@@ -42,11 +45,15 @@ class WallSpec(Spec):
     """A straight wall from ``start`` to ``end`` (its centre line), of some thickness."""
 
     start: Vec2
+    """One end of the centre line; the wall reaches half its thickness beyond it."""
     end: Vec2
+    """The other end of the centre line."""
     thickness: Positive | None = None
     """None: the arena's wall thickness."""
     color: Color | None = None
+    """None: the arena's wall colour."""
     texture: TextureSpec | None = None
+    """None: the arena's wall texture."""
 
     @model_validator(mode="after")
     def _has_length(self):
@@ -66,8 +73,12 @@ class DoorSpec(Spec):
     """
 
     name: Name | None = None
+    """A name for the door (for reading the file)."""
     kind: Literal["sliding", "hinged"] = "sliding"
+    """``sliding``: a panel that vanishes when opened; ``hinged``: swings when pushed."""
     state: Literal["closed", "locked", "open"] = "closed"
+    """How a sliding door starts: closed (opens on touch), locked (needs its key or
+    switch), open."""
     key: Name | None = None
     """The item group (with ``key: true``) that opens this door."""
     switch: Name | None = None
@@ -75,12 +86,19 @@ class DoorSpec(Spec):
     latch: Flag = True
     """A switched door stays open once opened."""
     swing: Annotated[float, Field(strict=True, gt=0, le=180)] = 100.0
+    """How far a hinged door turns either way from shut, in degrees."""
     mass: Positive = 4.0
+    """Mass of a hinged door's panel."""
     start: Vec2 | None = None
+    """For a door on its own: one end of its line (a hinged door's hinge)."""
     end: Vec2 | None = None
+    """For a door on its own: the other end of its line."""
     thickness: Positive | None = None
+    """None: the thickness of the wall it sits in (the arena's for a door on its own)."""
     color: Color = "brown"
+    """Colour of the panel."""
     texture: TextureSpec | None = None
+    """A texture instead of the plain colour."""
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -97,22 +115,31 @@ class OpeningSpec(Spec):
     """A gap in one side of a room, optionally filled by a door."""
 
     side: Literal["north", "south", "east", "west"]
+    """Which side of the room."""
     offset: Real | None = None
     """Distance of the gap's centre from the side's west (north and south sides) or south
     (east and west sides) end; None: the middle."""
     width: Positive = 40.0
+    """Width of the gap."""
     door: DoorSpec | None = None
+    """A door filling the gap; none: an open doorway."""
 
 
 class RoomSpec(Spec):
     """A rectangle of walls whose centre lines run along ``rect``'s edges."""
 
     name: Name | None = None
+    """A name for the room (for reading the file; nothing refers to it)."""
     rect: Rect
+    """The centre lines of the room's four walls."""
     openings: tuple[OpeningSpec, ...] = ()
+    """Gaps in its sides, each optionally holding a door."""
     thickness: Positive | None = None
+    """None: the arena's wall thickness."""
     color: Color | None = None
+    """None: the arena's wall colour."""
     texture: TextureSpec | None = None
+    """None: the arena's wall texture."""
 
 
 class CorridorSpec(Spec):
@@ -120,11 +147,17 @@ class CorridorSpec(Spec):
     ``start`` to ``end``; room walls across its ends are opened."""
 
     start: Vec2
+    """One end of the centre line (on a room wall, typically)."""
     end: Vec2
+    """The other end; start and end share x or y."""
     width: Positive = 40.0
+    """Distance between the centre lines of the corridor's two walls."""
     thickness: Positive | None = None
+    """None: the arena's wall thickness."""
     color: Color | None = None
+    """None: the arena's wall colour."""
     texture: TextureSpec | None = None
+    """None: the arena's wall texture."""
 
     @model_validator(mode="after")
     def _axis_parallel(self):
@@ -139,10 +172,12 @@ class ZoneSpec(Spec):
     and can work a door's switch. Rays do not see zones; the renderer paints them."""
 
     name: Name | None = None
+    """Doors name it as their ``switch``."""
     rect: Rect | None = None
     """Where the zone is. None: a ``size`` rectangle placed at random in ``area`` at each
     reset (on free floor the agents can reach), fixed for the episode."""
     size: Size2 | None = None
+    """Width and height of a zone placed at random."""
     area: Rect | None = None
     """Where a randomly placed zone may lie; None: the whole arena."""
     reward: Real = 0.0
@@ -170,14 +205,21 @@ class GridRoomsSpec(Spec):
     in every wall two rooms share (so every room is reachable)."""
 
     generator: Literal["grid_rooms"]
+    """Selects this generator."""
     rows: int_range(1, 30) = 2
+    """Rooms along y."""
     cols: int_range(1, 30) = 2
+    """Rooms along x."""
     door_width: Positive = 40.0
+    """Width of the opening in each shared wall."""
     doors: Literal["none", "closed", "hinged"] = "none"
     """What fills the openings: nothing, sliding doors that open on touch, hinged doors."""
     thickness: Positive | None = None
+    """None: the arena's wall thickness."""
     color: Color | None = None
+    """None: the arena's wall colour."""
     texture: TextureSpec | None = None
+    """None: the arena's wall texture."""
 
 
 class MazeSpec(Spec):
@@ -185,11 +227,17 @@ class MazeSpec(Spec):
     ``loops`` > 0 removes that fraction of the remaining inner walls at random."""
 
     generator: Literal["maze"]
+    """Selects this generator."""
     cell: Positive = 50.0
+    """Side of a maze cell (adjusted so that whole cells fill the arena)."""
     loops: UnitInterval = 0.0
+    """Fraction of the inner walls left by the perfect maze that are removed."""
     thickness: Positive | None = None
+    """None: the arena's wall thickness."""
     color: Color | None = None
+    """None: the arena's wall colour."""
     texture: TextureSpec | None = None
+    """None: the arena's wall texture."""
 
 
 class RandomObstaclesSpec(Spec):
@@ -197,10 +245,13 @@ class RandomObstaclesSpec(Spec):
     part of the arena from the agents."""
 
     generator: Literal["random_obstacles"]
+    """Selects this generator."""
     count: int_range(1, 500) = 10
+    """How many obstacles."""
     shapes: Annotated[
         tuple[Literal["circle", "box", "triangle", "pentagon"], ...], Field(min_length=1)
     ] = ("circle", "box", "triangle", "pentagon")
+    """Shapes to draw from, uniformly."""
     size: tuple[Positive, Positive] = (15.0, 40.0)
     """Smallest and largest diameter."""
     colors: Annotated[tuple[Color, ...], Field(min_length=1)] = (
@@ -209,6 +260,7 @@ class RandomObstaclesSpec(Spec):
         "yellow",
         "white",
     )
+    """Colours to draw from, uniformly."""
     gap: NonNegative = 25.0
     """Least clearance around each obstacle, so that agents can pass between them."""
 
@@ -225,3 +277,4 @@ class LayoutSpec(Spec):
     """True: a new layout at every reset, drawn from the env's generator. False: one layout
     for every episode, drawn from ``seed``."""
     seed: int_range(0, 2**31 - 1) = 0
+    """The seed of the one layout drawn when ``per_episode`` is false."""

@@ -38,7 +38,9 @@ def int_range(lo: int, hi: int):
 class Spec(BaseModel):
     """Base of every scenario model: frozen, and unknown keys are errors."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, validate_default=True, use_attribute_docstrings=True
+    )
 
 
 class TextureSpec(Spec):
@@ -56,8 +58,11 @@ class TextureSpec(Spec):
     colour to the second and back over ``2 * period``. noise: cells of length ``period``,
     each a random mix of the two colours drawn from ``seed``."""
     colors: tuple[Color, Color] = ("white", "black")
+    """The two colours of the pattern."""
     period: Positive = 10.0
     """Length in world units of one stripe pair, tile, checker square, gradient ramp or
     noise cell."""
     duty: UnitInterval = 0.5
+    """Share of each period in the first colour (stripes) or in grout (tiles)."""
     seed: int_range(0, 2**31 - 1) = 0
+    """Seed of the noise pattern."""

@@ -1,0 +1,125 @@
+"""Layouts: rooms, openings, corridors and generators give the walls they promise, and
+every place an agent may start or find an item can be reached."""
+
+import numpy as np
+import pytest
+
+import flatland_ma
+from flatland_ma.scenario import layout
+from flatland_ma.scenario.loader import load_scenario
+from flatland_ma.world.entities import Obstacle, Wall
+
+
+def walls(env):
+    return [s for e in env.episode.world.entities if isinstance(e, Wall) for s in e.shapes]
+
+
+def layout_signature(env):
+    shapes = walls(env) + [
+        s for e in env.episode.world.entities if isinstance(e, Obstacle) for s in e.shapes
+    ]
+    return sorted(
+        tuple(np.round(np.ravel([tuple(v) for v in s.get_vertices()]), 6)) for s in shapes
+    )
+
+
+def test_a_room_opening_is_a_gap_of_its_width():
+    room = {"rect": [100, 100, 200, 200], "openings": [{"side": "east", "offset": 30, "width": 40}]}
+    spec = load_scenario("fruits_poisons", obstacles=[], rooms=[room])
+    pieces = layout.explicit_layout(spec).walls
+    east = sorted((p.start[1], p.end[1]) for p in pieces if p.vertical and p.start[0] == 200)
+    # The east side runs from y = 95 to 205 (walls overlap at the corners); the gap is
+    # centred 30 above the room's south edge.
+    assert east == [(95.0, 110.0), (150.0, 205.0)]
+
+
+def test_adjacent_rooms_share_one_merged_wall_and_corridors_open_room_walls():
+    rooms = [{"rect": [20, 20, 150, 150]}, {"rect": [150, 20, 280, 150]}]
+    spec = load_scenario("fruits_poisons", obstacles=[], rooms=rooms)
+    shared = [p for p in layout.explicit_layout(spec).walls if p.vertical and p.start[0] == 150]
+    assert len(shared) == 1
+    spec = load_scenario("corridor_rooms")
+    pieces = layout.explicit_layout(spec).walls
+    for x in (170, 330):  # the room walls the corridor crosses are open where it runs
+        spans = sorted((p.start[1], p.end[1]) for p in pieces if p.vertical and p.start[0] == x)
+        assert len(spans) == 2 and spans[0][1] <= 110 and spans[1][0] >= 190
+
+
+def test_corridor_rooms_connects_its_rooms_and_walls_off_the_rest():
+    env = flatland_ma.parallel_env("corridor_rooms")
+    env.reset(seed=0)
+    grid = env.episode.grid
+    west = grid.cells_in((40, 70, 160, 230))
+    reach = grid.reachable(west)
+    assert reach[grid.cells_in((340, 70, 460, 230)) & ~grid.blocked].all()  # the east room
+    assert not reach[grid.cells_in((0, 0, 500, 40)) & ~grid.blocked].any()  # outside the rooms
+
+
+@pytest.mark.parametrize("loops", [0.0, 0.5])
+def test_maze_is_a_spanning_tree_of_its_cells_unless_loops_are_added(loops):
+    spec = load_scenario(
+        "maze_goal", layout={"generators": [{"generator": "maze", "cell": 50, "loops": loops}]}
+    )
+    gen = spec.layout.generators[0]
+    pieces = layout.maze(gen, spec, np.random.default_rng(3), 0)
+    # Count the cell-sized wall units (merged pieces span several cells).
+    units = sum(
+        round((max(abs(p.end[0] - p.start[0]), abs(p.end[1] - p.start[1])) - p.thickness) / 50)
+        for p in pieces.walls
+    )
+    inner_edges = 2 * 8 * 7
+    if loops == 0:
+        assert units == inner_edges - (64 - 1)
+    else:
+        assert units < inner_edges - (64 - 1)
+    env = flatland_ma.parallel_env("maze_goal", layout=spec.layout.model_dump())
+    env.reset(seed=3)
+    grid = env.episode.grid
+    free = ~grid.blocked
+    reach = grid.reachable(free & grid.cells_in((0, 0, 50, 50)))
+    assert reach[free].all()  # every free place is connected
+
+
+def test_grid_rooms_connect_every_room():
+    env = flatland_ma.parallel_env("forage_rooms_multi")
+    env.reset(seed=5)
+    grid = env.episode.grid
+    free = ~grid.blocked
+    assert grid.reachable(free & grid.cells_in((0, 0, 150, 150)))[free].all()
+
+
+def test_random_obstacles_do_not_overlap_and_cut_nothing_off():
+    env = flatland_ma.parallel_env("obstacle_forest")
+    for seed in range(4):
+        env.reset(seed=seed)
+        world = env.episode.world
+        obstacles = [e for e in world.entities if isinstance(e, Obstacle)]
+        assert len(obstacles) == 25
+        for o in obstacles:
+            shape = o.shapes[0]
+            others = [h.shape for h in world.space.shape_query(shape)]
+            assert all(world.entity_of_shape[s].edible or s is shape for s in others)
+        grid = env.episode.grid
+        free = ~grid.blocked
+        start = np.zeros_like(free)
+        start[grid.cell_of(*env.episode.bodies[0].body.position)] = True
+        assert grid.reachable(start)[free].all()
+
+
+def test_layouts_are_new_each_episode_or_fixed_by_a_switch():
+    env = flatland_ma.parallel_env("maze_goal")
+    env.reset(seed=1)
+    a = layout_signature(env)
+    env.reset(seed=2)
+    b = layout_signature(env)
+    env.reset(seed=1)
+    assert a != b and layout_signature(env) == a
+    fixed = dict(generators=[{"generator": "maze", "cell": 50}], per_episode=False, seed=7)
+    env = flatland_ma.parallel_env("maze_goal", layout=fixed)
+    env.reset(seed=1)
+    a = layout_signature(env)
+    env.reset(seed=2)
+    assert layout_signature(env) == a
+    other = flatland_ma.parallel_env("maze_goal", layout={**fixed, "seed": 8})
+    other.reset(seed=1)
+    assert layout_signature(other) != a
