@@ -179,7 +179,7 @@ def test_unknown_key_names_file_line_path_and_suggests(tmp_path):
             "doors:\n  - {start: [150, 0], end: [150, 40], state: locked, key: gold}\n",
             2,
             ("doors", 0, "key"),
-            "no item group 'gold'",
+            "no key item group or key object 'gold'",
         ),
         (
             "doors:\n  - {start: [150, 0], end: [150, 40], switch: plate}\n",

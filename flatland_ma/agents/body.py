@@ -6,17 +6,19 @@ bias drag the base towards it with at most ``max_force`` / ``max_torque``. So co
 velocities, but contacts are solved physically (the pymunk top-down "tank" pattern).
 
 pymunk moves bodies before it solves joints, so a joint alone would act one substep late
-(a left turn right after a right turn would not turn at all). ``command`` therefore also
-gives the base, at once, the change of turn rate the motor can make in one substep, and
-the change of velocity too while the base touches nothing. Touching something, the
-velocity is left to the motor and the contact solver: moving a body into a contact before
-the solver runs would push it into walls and other agents.
+(a left turn right after a right turn would not turn at all). ``drive`` therefore also
+gives the agent, at once, the change of velocity its motors can make in one substep: a
+plain base always gets its change of turn rate, and its change of velocity while it
+touches nothing; an agent with parts gets both, carried rigidly through its joints and
+adding each joint's change of rate, while it touches nothing. Touching something,
+velocities are left to the motors and the contact solver: moving a body into a contact
+before the solver runs would push it into walls and other agents.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import pymunk
 
@@ -36,32 +38,91 @@ class AgentBody(Entity):
     max_dw: float = 0.0
     """Largest change of turn rate the motor makes in one substep (radians per second)."""
     touching: int = 0
-    """Number of solid shapes the base touches (kept by the world's contact callbacks)."""
+    """Number of solid shapes the agent touches (kept by the world's contact callbacks)."""
+    parts: list = field(default_factory=list)
+    """Head and arm segments (``parts.Part``), each a body joined to the base."""
+    head: object = None
+    """The head part, if any."""
+    joints: list = field(default_factory=list)
+    """The motorised arm joints, in action order."""
+    hands: list = field(default_factory=list)
+    """The graspers (``grasp.Hand``), in action order."""
+    target: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Commanded velocity and turn rate of the base, in world coordinates."""
+
+    @property
+    def actor(self) -> AgentBody:
+        return self
+
+    def command_parts(self, head: float, joints, grips) -> None:
+        """Motor rates as fractions of their top speeds; ``grips``: True closes a hand,
+        False opens it, None leaves it."""
+        if self.head is not None:
+            self.head.motor.rate = -head * self.head.max_rate
+        for part, rate in zip(self.joints, joints):
+            part.motor.rate = -rate * part.max_rate
+        for hand, grip in zip(self.hands, grips):
+            if grip is not None:
+                hand.closed = grip
 
     def command(self, forward: float, lateral: float, turn: float) -> None:
         """Set the target velocity as fractions of the top speeds, in the body frame.
 
         ``forward`` along the heading, ``lateral`` to the left, ``turn`` counter-clockwise.
         """
-        body = self.body
-        angle = body.angle
+        angle = self.body.angle
         c, s = math.cos(angle), math.sin(angle)
         v = self.max_speed
         vx, vy = v * (forward * c - lateral * s), v * (forward * s + lateral * c)
         w = self.max_turn_rate * turn
         self.control.velocity = (vx, vy)
         self.control.angular_velocity = w
+        self.target = (vx, vy, w)
 
-        dw = w - body.angular_velocity
-        body.angular_velocity += max(-self.max_dw, min(self.max_dw, dw))
-        if self.touching:
+    def drive(self) -> None:
+        """Give the agent now the velocity change its motors make in one substep."""
+        body = self.body
+        vx, vy, w = self.target
+        dw = max(-self.max_dw, min(self.max_dw, w - body.angular_velocity))
+        if self.parts and self.touching:
             return
+        if not self.parts:
+            body.angular_velocity += dw
+            if self.touching:
+                return
         bvx, bvy = body.velocity
         dvx, dvy = vx - bvx, vy - bvy
         dv = math.hypot(dvx, dvy)
         if dv > self.max_dv:
             dvx, dvy = dvx * self.max_dv / dv, dvy * self.max_dv / dv
-        body.velocity = (bvx + dvx, bvy + dvy)
+        if not self.parts:
+            body.velocity = (bvx + dvx, bvy + dvy)
+            return
+        old_w = {body: body.angular_velocity}
+        for part in self.parts:
+            old_w[part.body] = part.body.angular_velocity
+        change = {body: (dvx, dvy, dw)}
+        _apply(body, dvx, dvy, dw)
+        for part in self.parts:
+            parent, child = part.parent, part.body
+            pdx, pdy, pdw = change[parent]
+            # Carried rigidly with its parent (at the child's centre of gravity) ...
+            cx, cy = child.local_to_world(child.center_of_gravity)
+            px, py = parent.local_to_world(parent.center_of_gravity)
+            dx, dy = pdx - pdw * (cy - py), pdy + pdw * (cx - px)
+            # ... plus the change of its joint's rate (pymunk's motor rate is parent - child).
+            relative = old_w[child] - old_w[parent]
+            d_rel = -part.motor.rate - relative
+            jx, jy = child.position
+            dx, dy = dx - d_rel * (cy - jy), dy + d_rel * (cx - jx)
+            change[child] = (dx, dy, pdw + d_rel)
+            _apply(child, dx, dy, pdw + d_rel)
+
+
+def _apply(body: pymunk.Body, dvx: float, dvy: float, dw: float) -> None:
+    vx, vy = body.velocity
+    body.velocity = (vx + dvx, vy + dvy)
+    body.angular_velocity += dw
 
 
 def make_agent_body(

@@ -58,7 +58,7 @@ class FlatlandParallelEnv(ParallelEnv):
         self.possible_agents = [f"agent_{i}" for i in range(spec.n_agents)]
         self.agents: list[str] = []
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
-        self._actuators = [Actuator(spec.agent.actions) for _ in self.possible_agents]
+        self._actuators = [Actuator(spec.agent) for _ in self.possible_agents]
         self._cameras = [Camera(spec.agent.camera) for _ in self.possible_agents]
         self.action_spaces = {a: act.space for a, act in zip(self.possible_agents, self._actuators)}
         self.observation_spaces = {
@@ -82,8 +82,12 @@ class FlatlandParallelEnv(ParallelEnv):
         return self.action_spaces[agent]
 
     def action_names(self, agent: str = "agent_0") -> tuple[str, ...]:
-        """What each discrete action or each continuous dimension means."""
+        """What each discrete action or each continuous entry means, in order."""
         return self._actuators[self._index[agent]].names
+
+    def action_index(self, name: str, agent: str = "agent_0") -> int:
+        """The discrete action (or continuous entry) called ``name``, e.g. ``"grasp"``."""
+        return self._actuators[self._index[agent]].index(name)
 
     @property
     def np_random(self) -> np.random.Generator:
@@ -155,6 +159,7 @@ class FlatlandParallelEnv(ParallelEnv):
             actuators[i].apply(bodies[i], action)
         self._log.append(checked)
         episode.world.step()
+        episode.hands.update()
         rewards, terminated = episode.task.evaluate(self._np_random)
         episode.sensors.observe()
         self.num_steps += 1

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flatland_ma.agents.body import AgentBody, make_agent_body
+from flatland_ma.agents.grasp import Hands
+from flatland_ma.agents.parts import attach_parts
 from flatland_ma.scenario import layout as layouts
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.factory import (
@@ -49,7 +51,11 @@ class Episode:
     grid: NavGrid
     """Free places for an agent's centre; doors and movable things count as free."""
     placer: Placer
+    hands: Hands
+    """Every agent's graspers."""
     doors: list[Door] = field(default_factory=list)
+    eyes: list = field(default_factory=list)
+    """Each agent's camera carrier: its base, or its head."""
 
 
 @dataclass
@@ -74,18 +80,35 @@ def build(
         except SpecError:
             if fixed or attempt == LAYOUT_TRIES - 1:
                 raise
-    start = grid.cells_in(spec.agent.spawn.area)
+    start = np.zeros_like(grid.blocked)
+    for i in range(spec.n_agents):
+        start |= grid.cells_in(spec.spawn_of(i).area)
     reachable = grid.reachable(start)
     placer = Placer(world, grid, reachable)
 
-    bodies = []
+    bodies, eyes, hands = [], [], []
+    reach = footprint(spec.agent)
     for i in range(spec.n_agents):
-        x, y = _place(placer, rng, spec.agent.radius, spec.agent.spawn.area, ("n_agents",), "agent")
-        heading = spec.agent.spawn.heading
-        angle = float(rng.uniform(-math.pi, math.pi)) if heading is None else math.radians(heading)
-        color = spec.agent.colors[i % len(spec.agent.colors)]
+        spawn, team = spec.spawn_of(i), spec.team_of(i)
+        x, y = _place(placer, rng, reach, spawn.area, ("n_agents",), "agent")
+        angle = (
+            float(rng.uniform(-math.pi, math.pi))
+            if spawn.heading is None
+            else math.radians(spawn.heading)
+        )
+        color = (
+            team.color
+            if team is not None and team.color is not None
+            else spec.agent.colors[i % len(spec.agent.colors)]
+        )
         body = make_agent_body(spec.agent, i, (x, y), angle, color, world.substep_dt)
         bodies.append(world.add(body))
+        for part in attach_parts(spec.agent, body, i):
+            world.add(part)
+        for hand in body.hands:
+            world.hand_of_shape[hand.shape] = hand
+        hands += body.hands
+        eyes.append(body.head if spec.agent.camera.mount == "head" else body)
 
     for g, item_spec in enumerate(spec.items):
         if item_spec.positions is not None:
@@ -99,9 +122,21 @@ def build(
             x, y = _place(placer, rng, item_spec.radius, item_spec.spawn, path, "item")
             world.add(make_item(item_spec, g, x, y))
 
-    sensors = Sensors(world, bodies, cameras)
-    task = Task(spec, world, sensors.geometry, bodies, doors, placer, rng)
-    return Episode(world, bodies, sensors, task, grid, placer, doors)
+    sensors = Sensors(world, eyes, cameras)
+    grasps = Hands(world.space, hands)
+    task = Task(spec, world, sensors.geometry, bodies, doors, placer, rng, grasps)
+    return Episode(world, bodies, sensors, task, grid, placer, grasps, doors, eyes)
+
+
+def footprint(agent) -> float:
+    """Radius of the disc an agent with its parts needs to start in."""
+    reach = agent.radius
+    if agent.head is not None:
+        reach = max(reach, agent.head.offset + agent.head.radius)
+    for arm in agent.arms:
+        tip = sum(s.length for s in arm.segments) + (arm.grasper.radius if arm.grasper else 0.0)
+        reach = max(reach, agent.radius + tip)
+    return reach
 
 
 def _static_world(

@@ -150,6 +150,10 @@ def make_obstacle(spec, space: pymunk.Space) -> Obstacle:
         color=spec.color,
         texture=spec.texture,
         constraints=constraints,
+        tag=spec.tag,
+        graspable=spec.graspable,
+        key=spec.key,
+        home=(*spec.position, math.radians(spec.angle)),
     )
 
 

@@ -44,6 +44,11 @@ SECTIONS: list[tuple[str, type[BaseModel], str]] = [
     ("agent", s.AgentSpec, "The body, motor, camera and start of every agent."),
     ("agent.spawn", s.SpawnSpec, ""),
     ("agent.camera", s.CameraSpec, ""),
+    ("agent.head", s.HeadSpec, ""),
+    ("agent.arms[]", s.ArmSpec, ""),
+    ("agent.arms[].segments[]", s.ArmSegmentSpec, ""),
+    ("agent.arms[].grasper", s.GrasperSpec, ""),
+    ("teams[]", s.TeamSpec, ""),
 ]
 
 INTRO = """\

@@ -15,7 +15,16 @@ from typing import Annotated
 from pydantic import Field, model_validator
 
 from flatland_ma.scenario.errors import SpecError
-from flatland_ma.scenario.spec_agent import AgentSpec, CameraSpec, SpawnSpec
+from flatland_ma.scenario.spec_agent import (
+    AgentSpec,
+    ArmSegmentSpec,
+    ArmSpec,
+    CameraSpec,
+    GrasperSpec,
+    HeadSpec,
+    SpawnSpec,
+    TeamSpec,
+)
 from flatland_ma.scenario.spec_objects import (
     BoxObstacle,
     CircleObstacle,
@@ -42,6 +51,11 @@ from flatland_ma.scenario.types import Flag, Name, Positive, Spec, TextureSpec, 
 
 __all__ = [
     "AgentSpec",
+    "ArmSegmentSpec",
+    "ArmSpec",
+    "GrasperSpec",
+    "HeadSpec",
+    "TeamSpec",
     "ArenaSpec",
     "BoxObstacle",
     "CameraSpec",
@@ -118,13 +132,46 @@ class ScenarioSpec(Spec):
     """Groups of items that agents take by touching them."""
     agent: AgentSpec = AgentSpec()
     """What every agent is: body, motor, camera, actions, start."""
+    teams: tuple[TeamSpec, ...] = ()
+    """Teams of agents, in agent order; their sizes add up to ``n_agents``."""
 
     @model_validator(mode="after")
     def _cross_checks(self):
         self._check_inside_arena()
         self._check_names()
+        self._check_teams()
         self._check_speed_against_walls()
         return self
+
+    def team_of(self, agent_index: int) -> TeamSpec | None:
+        """The team of an agent (teams take agents in order), or None without teams."""
+        first = 0
+        for team in self.teams:
+            if agent_index < first + team.size:
+                return team
+            first += team.size
+        return None
+
+    def spawn_of(self, agent_index: int) -> SpawnSpec:
+        team = self.team_of(agent_index)
+        return team.spawn if team is not None and team.spawn is not None else self.agent.spawn
+
+    def _check_teams(self) -> None:
+        if not self.teams:
+            for i, zone in enumerate(self.zones):
+                if zone.team is not None:
+                    raise SpecError(("zones", i, "team"), f"no team {zone.team!r}: no teams")
+            return
+        names = [t.name for t in self.teams]
+        for i, name in enumerate(names):
+            if name in names[:i]:
+                raise SpecError(("teams", i, "name"), f"team name {name!r} used twice")
+        total = sum(t.size for t in self.teams)
+        if total != self.n_agents:
+            raise SpecError(("n_agents",), f"the teams have {total} agents, not {self.n_agents}")
+        for i, zone in enumerate(self.zones):
+            if zone.team is not None and zone.team not in names:
+                raise SpecError(("zones", i, "team"), f"no team {zone.team!r}; teams: {names}")
 
     def all_doors(self) -> list[tuple[tuple, DoorSpec]]:
         """Every door with its key path: standalone ones and those in room openings."""
@@ -166,6 +213,13 @@ class ScenarioSpec(Spec):
         spawn = self.agent.spawn.area
         if spawn is not None and not inside(*spawn):
             raise SpecError(("agent", "spawn", "area"), f"spawn area lies {where}")
+        for i, team in enumerate(self.teams):
+            if (
+                team.spawn is not None
+                and team.spawn.area is not None
+                and not inside(*team.spawn.area)
+            ):
+                raise SpecError(("teams", i, "spawn", "area"), f"spawn area lies {where}")
 
     def _check_names(self) -> None:
         groups = [item.name for item in self.items]
@@ -179,12 +233,13 @@ class ScenarioSpec(Spec):
             if zone.name is not None and zones.count(zone.name) > 1:
                 raise SpecError(("zones", i, "name"), f"zone name {zone.name!r} used twice")
         keys = {item.name for item in self.items if item.key}
+        keys |= {o.key for o in self.obstacles if o.key is not None}
         door_names = []
         for path, door in self.all_doors():
             if door.key is not None and door.key not in keys:
                 raise SpecError(
                     path + ("key",),
-                    f"no item group {door.key!r} with 'key: true'; key groups: {sorted(keys)}",
+                    f"no key item group or key object {door.key!r}; keys: {sorted(keys)}",
                 )
             if door.switch is not None and door.switch not in zones:
                 raise SpecError(
@@ -197,6 +252,13 @@ class ScenarioSpec(Spec):
         for path, door in self.all_doors():
             if path[0] == "doors" and door.start is None:
                 raise SpecError(path, "a door outside a room opening needs 'start' and 'end'")
+        tags = {o.tag for o in self.obstacles if o.tag is not None}
+        for i, zone in enumerate(self.zones):
+            if zone.accepts is not None and zone.accepts not in tags:
+                raise SpecError(
+                    ("zones", i, "accepts"),
+                    f"no object with tag {zone.accepts!r}; tags: {sorted(tags)}",
+                )
         eaten = self.episode.end_when_eaten
         if eaten is not None and eaten not in groups:
             raise SpecError(

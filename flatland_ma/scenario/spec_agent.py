@@ -4,9 +4,20 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
-from flatland_ma.scenario.types import Color, Positive, Real, Rect, Spec, int_range
+from flatland_ma.scenario.types import (
+    Color,
+    Name,
+    NonNegative,
+    Positive,
+    Real,
+    Rect,
+    Spec,
+    int_range,
+)
+
+Degrees = Annotated[float, Field(strict=True, ge=-180, le=180, allow_inf_nan=False)]
 
 
 class CameraSpec(Spec):
@@ -18,6 +29,9 @@ class CameraSpec(Spec):
     """Farthest distance a ray sees; depth is normalised by it."""
     falloff: Literal["linear", "none"] = "linear"
     """How colour intensity falls with distance: ``linear`` is ``1 - d / range``."""
+    mount: Literal["base", "head"] = "base"
+    """Where the camera sits: on the base (it looks where the agent heads) or on the head
+    (it looks where the head turns; the agent needs a ``head``)."""
 
 
 class SpawnSpec(Spec):
@@ -26,6 +40,68 @@ class SpawnSpec(Spec):
     None: anywhere free in the arena."""
     heading: Real | None = None
     """Starting heading in degrees (counter-clockwise from +x); None: uniformly random."""
+
+
+class HeadSpec(Spec):
+    """A head: a small disc ahead of the base's centre, turning about that centre
+    within limits, driven by a motor."""
+
+    radius: Positive = 4.0
+    """Radius of the head's disc."""
+    offset: NonNegative = 6.0
+    """Distance of the head's centre from the base's centre."""
+    max_angle: Annotated[float, Field(strict=True, gt=0, le=180)] = 90.0
+    """How far the head turns either way from the heading, in degrees."""
+    turn_rate: Positive = 300.0
+    """Top speed of the head's turn relative to the base, degrees per second."""
+    max_torque: Positive = 50_000.0
+    """Largest torque of the head's motor."""
+    mass: Positive = 0.1
+    """Mass of the head."""
+
+
+class ArmSegmentSpec(Spec):
+    length: Positive = 16.0
+    """Length of the segment, from its joint to the next."""
+    width: Positive = 4.0
+    """Thickness of the segment."""
+    min_angle: Degrees = -90.0
+    """Lowest angle of its joint, relative to the previous segment (or to the mount), in
+    degrees."""
+    max_angle: Degrees = 90.0
+    """Highest angle of its joint."""
+    mass: Positive = 0.2
+    """Mass of the segment."""
+
+
+class GrasperSpec(Spec):
+    """A grasper (hook) at the tip of an arm: closing it while it touches a graspable
+    object attaches the object; opening it lets go."""
+
+    radius: Positive = 3.0
+    """Radius of the grasper's disc at the arm's tip."""
+    strength: Positive = 4_000.0
+    """Largest force the hold transmits; pulled harder, the object slips."""
+    break_distance: Positive = 6.0
+    """How far the object may slip from the grasper before the hold breaks."""
+
+
+class ArmSpec(Spec):
+    """An arm: segments in a chain from a joint on the base's rim, each joint motorised and
+    limited; optionally a grasper at the tip."""
+
+    mount: Degrees = 0.0
+    """Where on the base's rim the arm is attached, in degrees from the heading."""
+    segments: Annotated[tuple[ArmSegmentSpec, ...], Field(min_length=1, max_length=4)] = (
+        ArmSegmentSpec(),
+    )
+    """The segments, from the base outwards."""
+    joint_rate: Positive = 180.0
+    """Top speed of each joint, degrees per second."""
+    max_torque: Positive = 50_000.0
+    """Largest torque of each joint's motor."""
+    grasper: GrasperSpec | None = GrasperSpec()
+    """The grasper at the tip; none: a plain arm for pushing."""
 
 
 class AgentSpec(Spec):
@@ -57,5 +133,32 @@ class AgentSpec(Spec):
     """Largest torque the agent's motor applies to reach its commanded turn rate."""
     camera: CameraSpec = CameraSpec()
     """The first-person camera."""
+    head: HeadSpec | None = None
+    """A head that turns relative to the base (for a camera that looks around)."""
+    arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()
+    """Arms on the base's rim, for pushing, grasping and carrying."""
     spawn: SpawnSpec = SpawnSpec()
     """Where and how agents start."""
+
+    @model_validator(mode="after")
+    def _parts(self):
+        if self.camera.mount == "head" and self.head is None:
+            raise ValueError("a camera mounted on the head needs a 'head'")
+        for arm in self.arms:
+            for segment in arm.segments:
+                if segment.min_angle > segment.max_angle:
+                    raise ValueError("an arm joint's min_angle is above its max_angle")
+        return self
+
+
+class TeamSpec(Spec):
+    """A team: consecutive agents sharing a colour, a start area and zone rewards."""
+
+    name: Name
+    """Zones name it to reward it."""
+    size: int_range(1, 64) = 1
+    """How many agents it has (agents are numbered team by team)."""
+    color: Color | None = None
+    """Colour of its agents; none: the agents' colours."""
+    spawn: SpawnSpec | None = None
+    """Where its agents start; none: the agents' spawn."""

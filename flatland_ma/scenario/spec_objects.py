@@ -43,6 +43,18 @@ class ObstacleBase(Spec):
     """Bounciness of its surface (0: none, 1: perfectly elastic)."""
     floor_friction: NonNegative = 0.5
     """Resistance to sliding on the floor, for movable obstacles (force = this x mass x g)."""
+    tag: Name | None = None
+    """A name zones refer to (``accepts``) to take this object as a delivery."""
+    graspable: Flag = False
+    """Agents' graspers can hold it (it must be movable)."""
+    key: Name | None = None
+    """A key object: doors whose ``key`` names it open when it touches them."""
+
+    @model_validator(mode="after")
+    def _movable_things(self):
+        if (self.graspable or self.key is not None) and not self.movable:
+            raise ValueError("graspable and key objects must be movable")
+        return self
 
     def local_vertices(self) -> list[tuple[float, float]] | None:
         """Polygon vertices around the centre, counter-clockwise; None for a circle."""

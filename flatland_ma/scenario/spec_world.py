@@ -190,6 +190,18 @@ class ZoneSpec(Spec):
     """Entering moves the agent to a random start place (after the reward)."""
     color: Color | None = None
     """Floor paint in pictures; None: not drawn."""
+    accepts: Name | None = None
+    """Tag of the objects this zone takes: an object whose centre enters it is delivered
+    (it goes back to where it started, and any hold on it is dropped)."""
+    team: Name | None = None
+    """The team this zone's rewards go to: entering it rewards only agents of this team, and
+    deliveries reward this team; none: every agent."""
+    delivery_reward: Real = 0.0
+    """Reward to each agent of the zone's team (or to every agent) per delivery."""
+    zero_sum: Flag = False
+    """On a delivery the agents of the other teams get ``-delivery_reward``."""
+    end_on_delivery: Flag = False
+    """A delivery ends everyone's episode."""
 
     @model_validator(mode="after")
     def _placed(self):

@@ -4,25 +4,26 @@ from __future__ import annotations
 
 import numpy as np
 
-from flatland_ma.agents.body import AgentBody
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.camera import CHANNELS, Camera
 from flatland_ma.sensors.geometry import Geometry
+from flatland_ma.world.entities import Entity
 from flatland_ma.world.world import World
 
 
 class Sensors:
     """Each agent's camera; ``observe`` fills one preallocated image for all rays."""
 
-    def __init__(self, world: World, bodies: list[AgentBody], cameras: list[Camera]):
+    def __init__(self, world: World, eyes: list[Entity], cameras: list[Camera]):
+        """``eyes[i]`` carries camera i: an agent's base or head (``owner`` is the agent)."""
         self.geometry = geo = Geometry(world)
         self.cameras = cameras
         starts = np.cumsum([0] + [cam.n_rays for cam in cameras])
         self.slices = [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:])]
         n = int(starts[-1])
-        self.eye_body = np.array([geo.body_row[b.index] for b in bodies], np.int32)
-        self.eye_local = np.zeros((len(bodies), 3), np.float64)
-        self.eye_owner = np.array([b.owner for b in bodies], np.int32)
+        self.eye_body = np.array([geo.body_row[e.index] for e in eyes], np.int32)
+        self.eye_local = np.zeros((len(eyes), 3), np.float64)
+        self.eye_owner = np.array([e.owner for e in eyes], np.int32)
         self.eye_view = np.array([(c.spec.range, c.half_fov) for c in cameras], np.float64)
         self.eye_falloff = np.array([c.falloff for c in cameras], np.int32)
         self.eye_rays = starts.astype(np.int32)

@@ -1,5 +1,6 @@
 """Doors: a closed sliding door opens when an agent touches it, a locked one when the
-agent holds its key; a switched door opens while an agent stands in its zone. Hinged doors
+agent holds its key or a key object touches it; a switched door opens while an agent
+stands in its zone. Hinged doors
 need no rules: agents push them."""
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ class DoorRules:
             if door.is_open or spec.kind != "sliding" or spec.switch is not None:
                 continue
             if spec.state == "closed" or spec.key in records[agent.owner].keys:
+                self._open(door)
+        for thing, door in self.world.key_touches:
+            if not door.is_open and door.spec.kind == "sliding" and door.spec.key == thing.key:
                 self._open(door)
         for door in self.switched:
             pressed = occupied.get(door.spec.switch, False)

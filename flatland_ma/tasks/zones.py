@@ -13,9 +13,15 @@ from flatland_ma.world.placement import PlacementError, Placer
 
 class ZoneRules:
     def __init__(
-        self, spec: ScenarioSpec, bodies: list[AgentBody], placer: Placer, rng: np.random.Generator
+        self,
+        spec: ScenarioSpec,
+        bodies: list[AgentBody],
+        placer: Placer,
+        rng: np.random.Generator,
+        teams: list,
     ):
         self.specs = spec.zones
+        self.teams = teams
         self.bodies = bodies
         self.placer = placer
         self.agent_spec = spec.agent
@@ -60,6 +66,8 @@ class ZoneRules:
         entered = inside & ~self.inside
         for a, z in np.argwhere(entered):
             zone = self.specs[z]
+            if zone.team is not None and self.teams[a] != zone.team:
+                continue
             if not (zone.once and self.visited[a, z]):
                 rewards[a] += zone.reward
             self.visited[a, z] = True

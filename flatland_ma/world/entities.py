@@ -26,6 +26,7 @@ class CollisionType(IntEnum):
     ITEM = 3
     AGENT = 4
     DOOR = 5
+    GRASPER = 6
 
 
 class Category(IntFlag):
@@ -82,6 +83,11 @@ class Entity:
         """Whether it stands in agents' way for good (walls, fixed obstacles)."""
         return False
 
+    @property
+    def actor(self) -> Entity | None:
+        """The agent's base this entity is (or is a part of); None if no agent's."""
+        return None
+
 
 @dataclass(eq=False)
 class Wall(Entity):
@@ -92,6 +98,14 @@ class Wall(Entity):
 
 @dataclass(eq=False)
 class Obstacle(Entity):
+    tag: str | None = None
+    """Zones that accept this tag take the object as a delivery."""
+    graspable: bool = False
+    key: str | None = None
+    """Doors whose key this is open when the object touches them."""
+    home: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Where it started (x, y, angle): a delivered object goes back there."""
+
     @property
     def blocks_paths(self) -> bool:
         return not self.moving
