@@ -35,6 +35,9 @@ docs: $(STAMP)
 	for s in $$($(BIN)/python -c "import flatland_ma; print(' '.join(flatland_ma.list_scenarios()))"); do \
 		$(BIN)/flatland-ma record $$s --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$$s.png || exit 1; \
 	done
+	for s in push_box fetch_object key_carry coop_carry tug_of_war; do \
+		$(BIN)/flatland-ma record $$s --policy carrier --steps 300 --every 3 --seed 1 --out docs/images/tasks/$$s.gif || exit 1; \
+	done
 	$(BIN)/python -m flatland_ma.scenario.reference > docs/scenarios.md
 
 lint: $(STAMP)

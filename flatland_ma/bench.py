@@ -86,6 +86,8 @@ def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:
 
 LARGEST = "maze_large"
 """The biggest layout in the library: its rate shows what large worlds cost."""
+WITH_PARTS = "tug_of_war"
+"""Four agents with heads, arms and graspers: compare with fruits_poisons_multi's plain bodies."""
 
 
 def run(steps: int = 20_000) -> list[BenchResult]:
@@ -94,6 +96,7 @@ def run(steps: int = 20_000) -> list[BenchResult]:
         bench_parallel("fruits_poisons_multi", steps),
         bench_gym(LARGEST, steps),
         bench_parallel("forage_rooms_multi", steps),
+        bench_parallel(WITH_PARTS, steps),
     ]
 
 

@@ -29,7 +29,9 @@ def main(argv: list[str] | None = None) -> int:
         "record", help="write a GIF (and a PNG of its middle frame), or only a PNG, of play"
     )
     record.add_argument("scenario")
-    record.add_argument("--policy", choices=["greedy", "planner", "random"], default="greedy")
+    record.add_argument(
+        "--policy", choices=["greedy", "planner", "carrier", "random"], default="greedy"
+    )
     record.add_argument("--steps", type=int, default=300)
     record.add_argument("--every", type=int, default=2, help="keep one frame in this many")
     record.add_argument("--seed", type=int, default=0)
@@ -118,7 +120,7 @@ def _record(args) -> int:
 
 def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
-    from flatland_ma.policies import GreedyForager, PlannerPolicy, RandomPolicy
+    from flatland_ma.policies import CarrierPolicy, GreedyForager, PlannerPolicy, RandomPolicy
     from flatland_ma.render.video import save_gif, save_png
 
     env = FlatlandParallelEnv(scenario, render_mode="rgb_array")
@@ -126,6 +128,7 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
     makers = {
         "greedy": lambda a: GreedyForager(env.spec),
         "planner": lambda a: PlannerPolicy(env, a),
+        "carrier": lambda a: CarrierPolicy(env, a),
         "random": lambda a: RandomPolicy(env.action_space(a), seed=seed),
     }
     agents = {a: makers[policy](a) for a in env.possible_agents}

@@ -8,10 +8,8 @@ from flatland_ma.world.entities import Door, Item
 
 
 def place(env, index, x, y, angle=0.0):
-    body = env.episode.bodies[index].body
-    body.position, body.angle = (x, y), angle
-    body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
-    env.episode.world.space.reindex_shapes_for_body(body)
+    """Put agent ``index`` (with its parts) at (x, y) facing ``angle``, at rest."""
+    env.episode.bodies[index].teleport(x, y, angle)
 
 
 def items(env, group=None):

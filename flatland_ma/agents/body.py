@@ -37,6 +37,8 @@ class AgentBody(Entity):
     """Largest change of linear speed the motor makes in one substep (units per second)."""
     max_dw: float = 0.0
     """Largest change of turn rate the motor makes in one substep (radians per second)."""
+    step_dt: float = 1.0 / 30.0
+    """Seconds per environment step."""
     touching: int = 0
     """Number of solid shapes the agent touches (kept by the world's contact callbacks)."""
     parts: list = field(default_factory=list)
@@ -58,12 +60,38 @@ class AgentBody(Entity):
         """Motor rates as fractions of their top speeds; ``grips``: True closes a hand,
         False opens it, None leaves it."""
         if self.head is not None:
-            self.head.motor.rate = -head * self.head.max_rate
+            self._set_rate(self.head, head)
         for part, rate in zip(self.joints, joints):
-            part.motor.rate = -rate * part.max_rate
+            self._set_rate(part, rate)
         for hand, grip in zip(self.hands, grips):
             if grip is not None:
                 hand.closed = grip
+
+    def _set_rate(self, part, fraction: float) -> None:
+        """Drive a joint at ``fraction`` of its top speed, slowed so as to stop at its
+        limits by the end of the step (pymunk's motor rate is parent minus child)."""
+        wanted = fraction * part.max_rate
+        lo, hi = part.limits
+        angle = part.body.angle - part.parent.angle
+        wanted = min(wanted, max(0.0, (hi - angle) / self.step_dt))
+        wanted = max(wanted, min(0.0, (lo - angle) / self.step_dt))
+        part.motor.rate = -wanted
+
+    def teleport(self, x: float, y: float, angle: float) -> None:
+        """Put the agent (its parts carried along rigidly) at (x, y) facing ``angle``, at rest."""
+        body = self.body
+        ox, oy = body.position
+        turn = angle - body.angle
+        c, s = math.cos(turn), math.sin(turn)
+        for b in (body, *(p.body for p in self.parts)):
+            px, py = b.position
+            dx, dy = px - ox, py - oy
+            b.angle += turn  # (pymunk turns about the centre of gravity: angle first)
+            b.position = (x + c * dx - s * dy, y + s * dx + c * dy)
+            b.velocity, b.angular_velocity = (0.0, 0.0), 0.0
+            if b.space is not None:
+                b.space.reindex_shapes_for_body(b)
+        self.control.velocity, self.control.angular_velocity = (0.0, 0.0), 0.0
 
     def command(self, forward: float, lateral: float, turn: float) -> None:
         """Set the target velocity as fractions of the top speeds, in the body frame.
@@ -111,8 +139,7 @@ class AgentBody(Entity):
             px, py = parent.local_to_world(parent.center_of_gravity)
             dx, dy = pdx - pdw * (cy - py), pdy + pdw * (cx - px)
             # ... plus the change of its joint's rate (pymunk's motor rate is parent - child).
-            relative = old_w[child] - old_w[parent]
-            d_rel = -part.motor.rate - relative
+            d_rel = -part.motor.rate - (old_w[child] - old_w[parent])
             jx, jy = child.position
             dx, dy = dx - d_rel * (cy - jy), dy + d_rel * (cx - jx)
             change[child] = (dx, dy, pdw + d_rel)
@@ -132,6 +159,7 @@ def make_agent_body(
     angle: float,
     color: RGB,
     substep_dt: float,
+    step_dt: float,
 ) -> AgentBody:
     moment = pymunk.moment_for_circle(spec.mass, 0.0, spec.radius)
     body = pymunk.Body(spec.mass, moment)
@@ -162,5 +190,6 @@ def make_agent_body(
         max_turn_rate=math.radians(spec.max_turn_rate),
         max_dv=spec.max_force * substep_dt / spec.mass,
         max_dw=spec.max_torque * substep_dt / moment,
+        step_dt=step_dt,
     )
     return agent

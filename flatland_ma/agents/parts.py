@@ -75,7 +75,8 @@ def _head(spec: HeadSpec, base: AgentBody, agent_index: int) -> Part:
     anchor = base.body
     body = pymunk.Body(spec.mass, pymunk.moment_for_circle(spec.mass, 0, spec.radius))
     body.center_of_gravity = (spec.offset, 0.0)
-    body.position, body.angle = anchor.position, anchor.angle
+    # pymunk turns a body about its centre of gravity: set the angle, then the position.
+    body.angle, body.position = anchor.angle, anchor.position
     shape = pymunk.Circle(body, spec.radius, (spec.offset, 0.0))
     shape.collision_type = CollisionType.AGENT
     shape.filter = agent_filter(agent_index)
@@ -110,7 +111,7 @@ def _arm(arm: ArmSpec, base: AgentBody, agent_index: int, radius: float):
         ]
         body = pymunk.Body(seg.mass, pymunk.moment_for_poly(seg.mass, verts))
         body.center_of_gravity = (seg.length / 2, 0.0)
-        body.position, body.angle = joint_point, heading
+        body.angle, body.position = heading, joint_point
         shape = pymunk.Poly(body, verts)
         shape.collision_type = CollisionType.AGENT
         shape.filter = agent_filter(agent_index)

@@ -42,6 +42,7 @@ class PlannerPolicy:
         self._target: tuple | None = None
         self._stuck = 0
         self._escape = 0
+        self._escape_turn = 1.0
         self._last = None
 
     def act(self, observation=None):
@@ -58,13 +59,15 @@ class PlannerPolicy:
         episode = self.env.episode
         me = episode.bodies[self.index].body
         x, y = me.position
+        self._check_progress((x, y, me.angle))
         if self._escape > 0:
             self._escape -= 1
-            return (0.0, 1.0) if self._escape > 2 else (1.0, 0.0)
+            turn = self._escape_turn
+            return (0.0, turn) if self._escape > 2 else (1.0, 0.0)
         for avoid in (True, False):  # hemmed in by bad things: go through them
             grid = self._planning_grid(episode, avoid)
             here = grid.cell_of(x, y)
-            grid.blocked[here] = False
+            _free_around(grid, here)
             from_me = grid.distances(_mask_at(grid, [here]))
             goal = self._choose(episode, grid, from_me)
             if goal is not None:
@@ -76,22 +79,30 @@ class PlannerPolicy:
         wx, wy = grid.centre(*waypoint) if waypoint != here else self._target_point
         angle = _wrap(math.atan2(wy - y, wx - x) - me.angle)
         if abs(angle) > self.aim:
+            self._escape_turn = -1.0 if angle > 0 else 1.0  # if stuck, try the other way
             return (
                 (0.0, 1.0 if angle > 0 else -1.0)
                 if self.discrete
                 else (0.3, np.clip(angle / self.turn_step, -1, 1))
             )
-        self._check_progress((x, y))
+        self._escape_turn = 1.0
         return 1.0, 0.0
 
-    def _check_progress(self, position) -> None:
-        if self._last is not None and math.dist(position, self._last) < 0.5:
+    def _check_progress(self, pose) -> None:
+        """Count the steps in which the agent neither moved nor turned; past
+        ``STUCK_STEPS`` of them, turn away and step off to get free."""
+        last = self._last
+        if (
+            last is not None
+            and math.dist(pose[:2], last[:2]) < 0.5
+            and abs(pose[2] - last[2]) < 0.02
+        ):
             self._stuck += 1
             if self._stuck >= STUCK_STEPS:
                 self._stuck, self._escape = 0, 6
         else:
             self._stuck = 0
-        self._last = position
+        self._last = pose
 
     def _planning_grid(self, episode, avoid: bool):
         grid = episode.grid.copy()
@@ -166,6 +177,13 @@ class PlannerPolicy:
 
 def _items(episode):
     return [e for e in episode.world.entities if isinstance(e, Item)]
+
+
+def _free_around(grid, cell, cells: int = 2) -> None:
+    """Unblock the cells next to the agent: it is there, so it can move a little (the grid
+    is coarse, and being shoved into a corner must not leave it without a way out)."""
+    i, j = cell
+    grid.blocked[max(0, i - cells) : i + cells + 1, max(0, j - cells) : j + cells + 1] = False
 
 
 def _mask_at(grid, cells) -> np.ndarray:

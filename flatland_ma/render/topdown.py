@@ -127,8 +127,9 @@ class Renderer:
         for i, body in enumerate(episode.bodies):
             if not body.visible:
                 continue
-            ox, oy = body.body.position
-            heading = body.body.angle
+            eye = episode.eyes[i].body  # the base, or the head the camera sits on
+            ox, oy = eye.position
+            heading = eye.angle
             cam = sensors.cameras[i]
             dist = sensors.distance[sensors.slices[i]]
             points = [px((ox, oy))]

@@ -101,7 +101,7 @@ def build(
             if team is not None and team.color is not None
             else spec.agent.colors[i % len(spec.agent.colors)]
         )
-        body = make_agent_body(spec.agent, i, (x, y), angle, color, world.substep_dt)
+        body = make_agent_body(spec.agent, i, (x, y), angle, color, world.substep_dt, world.dt)
         bodies.append(world.add(body))
         for part in attach_parts(spec.agent, body, i):
             world.add(part)

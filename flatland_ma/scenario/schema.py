@@ -267,22 +267,27 @@ class ScenarioSpec(Spec):
             )
 
     def _check_speed_against_walls(self) -> None:
-        """A body moves at most one substep's travel into a wall between two contact
-        checks: walls thinner than that could be crossed."""
-        travel = self.agent.max_speed * self.physics.dt / self.physics.substeps
-        thinnest = [(("arena", "wall", "thickness"), self.arena.wall.thickness)]
+        """Between two contact checks a body moves one substep's travel: a part that can
+        travel farther than the wall's half thickness plus its own could pass through."""
+        substep = self.physics.dt / self.physics.substeps
+        walls = [(("arena", "wall", "thickness"), self.arena.wall.thickness)]
         for key in ("walls", "rooms", "corridors"):
-            for i, part in enumerate(getattr(self, key)):
-                if part.thickness is not None:
-                    thinnest.append(((key, i, "thickness"), part.thickness))
-        for path, thickness in thinnest:
-            if thickness / 2 + self.agent.radius <= travel:
-                raise SpecError(
-                    path,
-                    f"walls {thickness:g} thick can be crossed by an agent moving "
-                    f"{travel:g} units per substep (radius {self.agent.radius:g}); use thicker "
-                    "walls, more physics substeps or a lower max_speed",
-                )
+            for i, piece in enumerate(getattr(self, key)):
+                if piece.thickness is not None:
+                    walls.append(((key, i, "thickness"), piece.thickness))
+        for gen_index, gen in enumerate(self.layout.generators):
+            if getattr(gen, "thickness", None) is not None:
+                walls.append((("layout", "generators", gen_index, "thickness"), gen.thickness))
+        for path, thickness in walls:
+            for part, speed, half in self.agent.fastest_parts():
+                travel = speed * substep
+                if thickness / 2 + half <= travel:
+                    raise SpecError(
+                        path,
+                        f"walls {thickness:g} thick can be crossed by an agent's {part}, which "
+                        f"can move {travel:.3g} units per substep; use thicker walls, more "
+                        "physics substeps, or slower motors",
+                    )
 
 
 def _obstacle_bounds(obstacle) -> tuple[float, float, float, float]:

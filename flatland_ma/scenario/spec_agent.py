@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
@@ -18,6 +19,12 @@ from flatland_ma.scenario.types import (
 )
 
 Degrees = Annotated[float, Field(strict=True, ge=-180, le=180, allow_inf_nan=False)]
+MAX_FORCE = 100_000.0
+"""The strongest motor force and grasp allowed (the physics is tested at these limits)."""
+MAX_TORQUE = 1_000_000.0
+"""The strongest motor torque allowed."""
+MAX_RATE = 720.0
+"""The fastest turn of a base, a head or a joint allowed, degrees per second."""
 
 
 class CameraSpec(Spec):
@@ -52,9 +59,9 @@ class HeadSpec(Spec):
     """Distance of the head's centre from the base's centre."""
     max_angle: Annotated[float, Field(strict=True, gt=0, le=180)] = 90.0
     """How far the head turns either way from the heading, in degrees."""
-    turn_rate: Positive = 300.0
+    turn_rate: Annotated[float, Field(strict=True, gt=0, le=MAX_RATE)] = 300.0
     """Top speed of the head's turn relative to the base, degrees per second."""
-    max_torque: Positive = 50_000.0
+    max_torque: Annotated[float, Field(strict=True, gt=0, le=MAX_TORQUE)] = 50_000.0
     """Largest torque of the head's motor."""
     mass: Positive = 0.1
     """Mass of the head."""
@@ -63,7 +70,7 @@ class HeadSpec(Spec):
 class ArmSegmentSpec(Spec):
     length: Positive = 16.0
     """Length of the segment, from its joint to the next."""
-    width: Positive = 4.0
+    width: Positive = 6.0
     """Thickness of the segment."""
     min_angle: Degrees = -90.0
     """Lowest angle of its joint, relative to the previous segment (or to the mount), in
@@ -80,7 +87,7 @@ class GrasperSpec(Spec):
 
     radius: Positive = 3.0
     """Radius of the grasper's disc at the arm's tip."""
-    strength: Positive = 4_000.0
+    strength: Annotated[float, Field(strict=True, gt=0, le=MAX_FORCE)] = 4_000.0
     """Largest force the hold transmits; pulled harder, the object slips."""
     break_distance: Positive = 6.0
     """How far the object may slip from the grasper before the hold breaks."""
@@ -96,9 +103,9 @@ class ArmSpec(Spec):
         ArmSegmentSpec(),
     )
     """The segments, from the base outwards."""
-    joint_rate: Positive = 180.0
+    joint_rate: Annotated[float, Field(strict=True, gt=0, le=MAX_RATE)] = 180.0
     """Top speed of each joint, degrees per second."""
-    max_torque: Positive = 50_000.0
+    max_torque: Annotated[float, Field(strict=True, gt=0, le=MAX_TORQUE)] = 50_000.0
     """Largest torque of each joint's motor."""
     grasper: GrasperSpec | None = GrasperSpec()
     """The grasper at the tip; none: a plain arm for pushing."""
@@ -125,11 +132,11 @@ class AgentSpec(Spec):
     Box(-1, 1, (3,)) longitudinal, lateral, angular."""
     max_speed: Positive = 200.0
     """Top linear speed, units per second."""
-    max_turn_rate: Positive = 300.0
+    max_turn_rate: Annotated[float, Field(strict=True, gt=0, le=MAX_RATE)] = 300.0
     """Top angular speed, degrees per second."""
-    max_force: Positive = 15_000.0
+    max_force: Annotated[float, Field(strict=True, gt=0, le=MAX_FORCE)] = 15_000.0
     """Largest force the agent's motor applies to reach its commanded velocity."""
-    max_torque: Positive = 100_000.0
+    max_torque: Annotated[float, Field(strict=True, gt=0, le=MAX_TORQUE)] = 100_000.0
     """Largest torque the agent's motor applies to reach its commanded turn rate."""
     camera: CameraSpec = CameraSpec()
     """The first-person camera."""
@@ -139,6 +146,22 @@ class AgentSpec(Spec):
     """Arms on the base's rim, for pushing, grasping and carrying."""
     spawn: SpawnSpec = SpawnSpec()
     """Where and how agents start."""
+
+    def fastest_parts(self) -> list[tuple[str, float, float]]:
+        """(part, top speed in units per second, half thickness) for the base and each
+        part, the speed counting the base's motion and every joint turning at once."""
+        turn = math.radians(self.max_turn_rate)
+        parts = [("base", self.max_speed, self.radius)]
+        if self.head is not None:
+            reach = self.head.offset + self.head.radius
+            spin = turn + math.radians(self.head.turn_rate)
+            parts.append(("head", self.max_speed + spin * reach, self.head.radius))
+        for k, arm in enumerate(self.arms):
+            tip = self.radius + sum(s.length for s in arm.segments)
+            spin = turn + math.radians(arm.joint_rate) * len(arm.segments)
+            half = min(s.width for s in arm.segments) / 2
+            parts.append((f"arms[{k}]", self.max_speed + spin * tip, half))
+        return parts
 
     @model_validator(mode="after")
     def _parts(self):
