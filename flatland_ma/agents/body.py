@@ -75,7 +75,9 @@ class AgentBody(Entity):
         angle = part.body.angle - part.parent.angle
         wanted = min(wanted, max(0.0, (hi - angle) / self.step_dt))
         wanted = max(wanted, min(0.0, (lo - angle) / self.step_dt))
-        part.motor.rate = -wanted
+        if part.rate != -wanted:
+            part.rate = -wanted
+            _set(part.motor, "rate", -wanted)
 
     def teleport(self, x: float, y: float, angle: float) -> None:
         """Put the agent (its parts carried along rigidly) at (x, y) facing ``angle``, at rest."""
@@ -126,30 +128,36 @@ class AgentBody(Entity):
         if not self.parts:
             body.velocity = (bvx + dvx, bvy + dvy)
             return
-        old_w = {body: body.angular_velocity}
+        # Read each body once: position of its origin (the joint), angle, velocity, spin.
+        bx, by = body.position
+        bw = body.angular_velocity
+        _set(body, "velocity", (bvx + dvx, bvy + dvy))
+        _set(body, "angular_velocity", bw + dw)
+        change = {body: (dvx, dvy, dw, bx, by, bw)}  # and the centre of gravity, old spin
         for part in self.parts:
-            old_w[part.body] = part.body.angular_velocity
-        change = {body: (dvx, dvy, dw)}
-        _apply(body, dvx, dvy, dw)
-        for part in self.parts:
-            parent, child = part.parent, part.body
-            pdx, pdy, pdw = change[parent]
-            # Carried rigidly with its parent (at the child's centre of gravity) ...
-            cx, cy = child.local_to_world(child.center_of_gravity)
-            px, py = parent.local_to_world(parent.center_of_gravity)
-            dx, dy = pdx - pdw * (cy - py), pdy + pdw * (cx - px)
-            # ... plus the change of its joint's rate (pymunk's motor rate is parent - child).
-            d_rel = -part.motor.rate - (old_w[child] - old_w[parent])
+            child = part.body
+            pdx, pdy, pdw, px, py, pw = change[part.parent]
             jx, jy = child.position
-            dx, dy = dx - d_rel * (cy - jy), dy + d_rel * (cx - jx)
-            change[child] = (dx, dy, pdw + d_rel)
-            _apply(child, dx, dy, pdw + d_rel)
+            a = child.angle
+            lx, ly = part.cog
+            cx, cy = (
+                jx + math.cos(a) * lx - math.sin(a) * ly,
+                jy + math.sin(a) * lx + math.cos(a) * ly,
+            )
+            cw = child.angular_velocity
+            # Carried rigidly with its parent (at the child's centre of gravity), plus the
+            # change of its joint's rate (pymunk's motor rate is parent minus child).
+            d_rel = -part.rate - (cw - pw)
+            dx = pdx - pdw * (cy - py) - d_rel * (cy - jy)
+            dy = pdy + pdw * (cx - px) + d_rel * (cx - jx)
+            vx0, vy0 = child.velocity
+            _set(child, "velocity", (vx0 + dx, vy0 + dy))
+            _set(child, "angular_velocity", cw + pdw + d_rel)
+            change[child] = (dx, dy, pdw + d_rel, cx, cy, cw)
 
 
-def _apply(body: pymunk.Body, dvx: float, dvy: float, dw: float) -> None:
-    vx, vy = body.velocity
-    body.velocity = (vx + dvx, vy + dvy)
-    body.angular_velocity += dw
+_set = object.__setattr__
+"""pymunk's own ``__setattr__`` only serves type checkers; the hot path goes round it."""
 
 
 def make_agent_body(

@@ -30,6 +30,10 @@ class Part(Entity):
     """Lowest and highest angle of the body relative to its parent, in radians."""
     max_rate: float = 0.0
     """Top speed of its joint, radians per second."""
+    cog: tuple[float, float] = (0.0, 0.0)
+    """Its centre of gravity in body coordinates."""
+    rate: float = 0.0
+    """The rate last given to its motor (pymunk's sign: parent minus child)."""
 
     @property
     def actor(self) -> AgentBody:
@@ -93,6 +97,7 @@ def _head(spec: HeadSpec, base: AgentBody, agent_index: int) -> Part:
         motor=motor,
         limits=(-limit, limit),
         max_rate=math.radians(spec.turn_rate),
+        cog=(spec.offset, 0.0),
     )
 
 
@@ -131,6 +136,7 @@ def _arm(arm: ArmSpec, base: AgentBody, agent_index: int, radius: float):
             motor=constraints[2],
             limits=(lo, hi),
             max_rate=math.radians(arm.joint_rate),
+            cog=(seg.length / 2, 0.0),
         )
         segments.append(part)
         parent = body

@@ -137,7 +137,7 @@ class PlannerPolicy:
                 wanted.append((("item", item.index), item.body.position, None))
         zones = episode.task.zones
         for z, zone in enumerate(self.env.spec.zones):
-            visited = zones.visited[self.index, z]
+            visited = zones.visited[self.index][z]
             if zone.reward > 0 and not (zone.once and visited):
                 wanted.append((("zone", z), None, tuple(zones.rects[z])))
         switch_zones = {d.spec.switch for d in episode.doors if d.spec.switch and not d.is_open}

@@ -28,9 +28,11 @@ class ZoneRules:
         self.rects = np.array(
             [z.rect if z.rect is not None else self._draw(z, rng) for z in spec.zones], np.float64
         ).reshape(-1, 4)
+        self.rect_list = [tuple(map(float, r)) for r in self.rects]
         self.names = [z.name for z in spec.zones]
+        self.spawns = [spec.spawn_of(i) for i in range(len(bodies))]
         self.inside = self._inside()
-        self.visited = self.inside.copy()
+        self.visited = [list(row) for row in self.inside]
 
     def _draw(self, zone, rng: np.random.Generator) -> tuple[float, float, float, float]:
         """A ``zone.size`` rectangle centred on reachable floor inside ``zone.area``."""
@@ -44,54 +46,59 @@ class ZoneRules:
             cx, cy = self.placer.grid.centre(*cells[rng.integers(len(cells))])
         return (cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
 
-    def _inside(self) -> np.ndarray:
-        if len(self.rects) == 0:
-            return np.zeros((len(self.bodies), 0), bool)
-        pos = np.array([tuple(b.body.position) for b in self.bodies], np.float64)
-        r = self.rects
-        return (
-            (pos[:, 0:1] >= r[:, 0])
-            & (pos[:, 0:1] <= r[:, 2])
-            & (pos[:, 1:2] >= r[:, 1])
-            & (pos[:, 1:2] <= r[:, 3])
-        )
+    def _inside(self) -> list[list[bool]]:
+        """For each agent, whether its centre lies in each zone (plain Python: a handful of
+        agents and zones is faster so than through numpy)."""
+        rects = self.rect_list
+        inside = []
+        for agent in self.bodies:
+            x, y = agent.body.position
+            inside.append([x0 <= x <= x1 and y0 <= y <= y1 for x0, y0, x1, y1 in rects])
+        return inside
 
     def apply(self, records, rewards, terminated, rng) -> dict[str, bool]:
         """Act on entries; return which named zones have a live agent in them."""
-        if len(self.rects) == 0:
+        if not self.rect_list:
             return {}
         inside = self._inside()
-        live = np.array([not r.done for r in records])
-        inside &= live[:, None]
-        entered = inside & ~self.inside
-        for a, z in np.argwhere(entered):
-            zone = self.specs[z]
-            if zone.team is not None and self.teams[a] != zone.team:
+        moved = False
+        for a, row in enumerate(inside):
+            if records[a].done:
+                inside[a] = row = [False] * len(row)
                 continue
-            if not (zone.once and self.visited[a, z]):
-                rewards[a] += zone.reward
-            self.visited[a, z] = True
-            if zone.terminal:
-                terminated[a] = True
-            if zone.teleport:
-                self._teleport(self.bodies[a], rng)
-        if entered.any() and any(z.teleport for z in self.specs):
-            inside = self._inside() & live[:, None]
+            was = self.inside[a]
+            for z, now in enumerate(row):
+                if not now or was[z]:
+                    continue
+                zone = self.specs[z]
+                if zone.team is not None and self.teams[a] != zone.team:
+                    continue
+                if not (zone.once and self.visited[a][z]):
+                    rewards[a] += zone.reward
+                self.visited[a][z] = True
+                if zone.terminal:
+                    terminated[a] = True
+                if zone.teleport:
+                    moved |= self._teleport(a, rng)
+        if moved:
+            inside = [
+                [False] * len(row) if records[a].done else row
+                for a, row in enumerate(self._inside())
+            ]
         self.inside = inside
-        occupied = inside.any(axis=0)
-        return {name: bool(occupied[z]) for z, name in enumerate(self.names) if name is not None}
+        return {
+            name: any(row[z] for row in inside)
+            for z, name in enumerate(self.names)
+            if name is not None
+        }
 
-    def _teleport(self, agent: AgentBody, rng) -> None:
+    def _teleport(self, a: int, rng) -> bool:
+        spawn = self.spawns[a]
         try:
-            x, y = self.placer.sample(rng, self.agent_spec.radius, self.agent_spec.spawn.area)
+            x, y = self.placer.sample(rng, self.agent_spec.radius, spawn.area)
         except PlacementError:
-            return  # nowhere to go: stay
-        heading = self.agent_spec.spawn.heading
-        body = agent.body
-        body.position = (x, y)
-        body.angle = (
-            float(rng.uniform(-math.pi, math.pi)) if heading is None else math.radians(heading)
-        )
-        body.velocity = (0.0, 0.0)
-        body.angular_velocity = 0.0
-        body.space.reindex_shapes_for_body(body)
+            return False  # nowhere to go: stay
+        heading = spawn.heading
+        angle = float(rng.uniform(-math.pi, math.pi)) if heading is None else math.radians(heading)
+        self.bodies[a].teleport(x, y, angle)
+        return True
