@@ -346,21 +346,27 @@ def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells:
     nx, ny = max(1, math.ceil((x1 - x0) / cell)), max(1, math.ceil((y1 - y0) / cell))
     grid = np.array([x0, y0, cell, nx, ny], np.float64)
 
-    def cells_of(index_boxes):
-        per_cell = [[] for _ in range(nx * ny)]
-        for index, (bx0, by0, bx1, by1) in index_boxes:
-            i0, i1 = int((bx0 - x0) / cell), min(nx - 1, int((bx1 - x0) / cell))
-            j0, j1 = int((by0 - y0) / cell), min(ny - 1, int((by1 - y0) / cell))
-            for j in range(j0, j1 + 1):
-                for i in range(i0, i1 + 1):
-                    per_cell[j * nx + i].append(index)
-        start = np.zeros(nx * ny + 1, np.int32)
-        start[1:] = np.cumsum([len(c) for c in per_cell])
-        flat = np.array([s for c in per_cell for s in c], np.int32)
-        return start, flat
+    def cells_of(indices, index_boxes):
+        """CSR lists of the shapes whose bounding box meets each cell."""
+        n_cells = nx * ny
+        if len(indices) == 0:
+            return np.zeros(n_cells + 1, np.int32), np.zeros(0, np.int32)
+        i0 = np.clip(((index_boxes[:, 0] - x0) / cell).astype(np.int64), 0, nx - 1)
+        i1 = np.clip(((index_boxes[:, 2] - x0) / cell).astype(np.int64), 0, nx - 1)
+        j0 = np.clip(((index_boxes[:, 1] - y0) / cell).astype(np.int64), 0, ny - 1)
+        j1 = np.clip(((index_boxes[:, 3] - y0) / cell).astype(np.int64), 0, ny - 1)
+        width = i1 - i0 + 1
+        counts = width * (j1 - j0 + 1)
+        owner = np.repeat(np.arange(len(indices)), counts)
+        local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        cells = (j0[owner] + local // width[owner]) * nx + i0[owner] + local % width[owner]
+        order = np.argsort(cells, kind="stable")
+        start = np.zeros(n_cells + 1, np.int32)
+        start[1:] = np.cumsum(np.bincount(cells, minlength=n_cells))
+        return start, np.asarray(indices, np.int32)[owner[order]]
 
-    seg_boxes = zip(np.flatnonzero(seg_fixed), boxes[0] if seg_fixed.any() else [])
-    circ_boxes = zip(np.flatnonzero(circ_fixed), boxes[-1] if circ_fixed.any() else [])
-    seg_start, segs = cells_of(seg_boxes)
-    circ_start, circs = cells_of(circ_boxes)
+    seg_start, segs = cells_of(np.flatnonzero(seg_fixed), boxes[0] if seg_fixed.any() else None)
+    circ_start, circs = cells_of(
+        np.flatnonzero(circ_fixed), boxes[-1] if circ_fixed.any() else None
+    )
     return grid, seg_start, segs, circ_start, circs
