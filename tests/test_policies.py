@@ -32,3 +32,19 @@ def test_greedy_forager_drives_continuous_bodies():
     env = flatland_ma.parallel_env("fruits_poisons", agent={"actions": "continuous"})
     scores = evaluate(env, lambda agent: GreedyForager(env.spec), episodes=3)
     assert scores.mean > 100.0
+
+
+def test_scripted_policies_act_in_any_body_s_action_space():
+    from flatland_ma.policies import PlannerPolicy
+
+    for actions in ("discrete", "continuous"):
+        env = flatland_ma.parallel_env(
+            "fruits_poisons", agent={"actions": actions, "head": {}, "arms": [{}]}
+        )
+        observations, _ = env.reset(seed=0)
+        greedy, planner = GreedyForager(env.spec), PlannerPolicy(env, "agent_0")
+        space = env.action_space("agent_0")
+        for _ in range(30):
+            for policy in (greedy, planner):
+                assert space.contains(policy.act(observations["agent_0"]))
+            observations, *_ = env.step({"agent_0": planner.act(observations["agent_0"])})

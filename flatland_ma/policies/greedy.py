@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from flatland_ma.agents.actuators import DiscreteAction
+from flatland_ma.policies.motion import base_action
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.camera import Camera
 
@@ -52,6 +52,7 @@ class GreedyForager:
         self.range = spec.agent.camera.range
         self.linear = spec.agent.camera.falloff == "linear"
         self.discrete = spec.agent.actions == "discrete"
+        self.agent_spec = spec.agent
         self.good = np.array([i.color for i in spec.items if i.reward > 0], np.float64)
         self.bad = np.array([i.color for i in spec.items if i.reward < 0], np.float64)
         self.neutral = np.array([i.color for i in spec.items if i.reward == 0], np.float64)
@@ -93,13 +94,7 @@ class GreedyForager:
         forward, turn = self._decide(np.asarray(observation, np.float64))
         self._last = (forward, turn)
         self._turns = self._turns[-DITHER_TURNS:] + [np.sign(turn)]
-        if not self.discrete:
-            return np.array([forward, 0.0, turn], np.float32)
-        if turn > 0:
-            return int(DiscreteAction.ROTATE_LEFT)
-        if turn < 0:
-            return int(DiscreteAction.ROTATE_RIGHT)
-        return int(DiscreteAction.FORWARD)
+        return base_action(self.agent_spec, forward, turn)
 
     # -- perception and memory --------------------------------------------------------
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from flatland_ma.agents.actuators import DiscreteAction
+from flatland_ma.policies.motion import base_action
 from flatland_ma.world.entities import Item
 from flatland_ma.world.navigation import UNREACHED
 
@@ -34,6 +34,7 @@ class PlannerPolicy:
         self.index = env.possible_agents.index(agent)
         spec = env.spec
         self.discrete = spec.agent.actions == "discrete"
+        self.agent_spec = spec.agent
         self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
         self.aim = self.turn_step * 0.6
         self.reset()
@@ -47,13 +48,7 @@ class PlannerPolicy:
 
     def act(self, observation=None):
         forward, turn = self._decide()
-        if not self.discrete:
-            return np.array([forward, 0.0, turn], np.float32)
-        if turn > 0:
-            return int(DiscreteAction.ROTATE_LEFT)
-        if turn < 0:
-            return int(DiscreteAction.ROTATE_RIGHT)
-        return int(DiscreteAction.FORWARD)
+        return base_action(self.agent_spec, forward, turn)
 
     def _decide(self) -> tuple[float, float]:
         episode = self.env.episode
