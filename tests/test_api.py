@@ -90,3 +90,17 @@ def test_close_is_safe_twice_and_no_window_without_human_mode():
     assert env._renderer._window is None
     env.close()
     env.close()
+
+
+def test_agents_whose_episode_ends_early_pass_the_checkers():
+    # Terminal zones end agents one by one; the others play on.
+    kwargs = dict(
+        zones=[{"rect": [0, 0, 100, 300], "terminal": True, "reward": 1.0}],
+        n_agents=3,
+        episode={"max_steps": 300},
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parallel_api_test(flatland_ma.parallel_env("fruits_poisons_multi", **kwargs), num_cycles=300)
+        api_test(flatland_ma.env("fruits_poisons_multi", **kwargs), num_cycles=300)
+    seed_test(lambda: flatland_ma.env("fruits_poisons_multi", **kwargs), num_cycles=300)
