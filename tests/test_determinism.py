@@ -43,7 +43,9 @@ def test_unseeded_resets_differ_but_continue_the_seeded_stream():
     np.testing.assert_array_equal(other.reset()[0]["agent_0"], second["agent_0"])
 
 
-@pytest.mark.parametrize("scenario", ["fruits_poisons_multi", "maze_goal", "obstacle_forest"])
+@pytest.mark.parametrize(
+    "scenario", ["fruits_poisons_multi", "maze_goal", "obstacle_forest", "tug_of_war"]
+)
 def test_rollouts_match_across_processes(scenario):
     code = (
         "from tests.rollouts import rollout_digest;"

@@ -14,9 +14,20 @@ def _same(a, b):
     assert data_equivalence(a, b, exact=True)
 
 
-@pytest.mark.parametrize("actions", ["discrete", "continuous"])
-def test_parallel_env_continues_identically_after_unpickling(actions):
-    env = flatland_ma.parallel_env("fruits_poisons_multi", agent={"actions": actions})
+@pytest.mark.parametrize(
+    "scenario, actions",
+    [
+        ("fruits_poisons_multi", "discrete"),
+        ("fruits_poisons_multi", "continuous"),
+        ("tug_of_war", "discrete"),
+        ("tug_of_war", "continuous"),
+    ],
+)
+def test_parallel_env_continues_identically_after_unpickling(scenario, actions):
+    agent = {"actions": actions}
+    if scenario == "tug_of_war":
+        agent.update(head={}, camera={"mount": "head"}, arms=[{"mount": 0}])
+    env = flatland_ma.parallel_env(scenario, agent=agent)
     env.reset(seed=21)
     for i, a in enumerate(env.possible_agents):
         env.action_space(a).seed(i)
@@ -26,9 +37,10 @@ def test_parallel_env_continues_identically_after_unpickling(actions):
     rng = np.random.default_rng(0)
     while env.agents:
         if actions == "discrete":
-            step = {a: int(rng.integers(3)) for a in env.agents}
+            step = {a: int(rng.integers(env.action_space(a).n)) for a in env.agents}
         else:
-            step = {a: rng.uniform(-1, 1, 3).astype(np.float32) for a in env.agents}
+            shape = env.action_space("agent_0").shape
+            step = {a: rng.uniform(-1, 1, shape).astype(np.float32) for a in env.agents}
         _same(env.step(step), copy.step(step))
     assert copy.agents == []
     # Both draw the same next episode, too.
