@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow bench docs lint clean
+.PHONY: demo test test-slow bench docs lint clean reproduce results
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -40,9 +40,24 @@ docs: $(STAMP)
 	done
 	$(BIN)/python -m flatland_ma.scenario.reference > docs/scenarios.md
 
+# The paper's experiment: DQN, A3C and DFP on fruits_poisons, 30 seeds of 250k steps each,
+# two seeds at a time (runs/ resumes where it stopped), then the figure and table.
+SEEDS ?= 30
+WORKERS ?= 2
+reproduce: $(STAMP)
+	$(BIN)/python -m baselines.run dqn --seeds $(SEEDS) --workers $(WORKERS) --steps 250000 --out runs
+	$(BIN)/python -m baselines.run dfp --seeds $(SEEDS) --workers $(WORKERS) --steps 250000 --out runs
+	$(BIN)/python -m baselines.run a3c --seeds $(SEEDS) --workers 1 --steps 250000 --out runs
+	$(MAKE) results
+
+results: $(STAMP)
+	$(BIN)/python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons \
+		runs/dfp/fruits_poisons --labels DQN A3C DFP --references 20 \
+		--out docs/images/results_fruits_poisons.png
+
 lint: $(STAMP)
-	$(BIN)/ruff check flatland_ma tests
-	$(BIN)/ruff format --check flatland_ma tests
+	$(BIN)/ruff check flatland_ma baselines tests
+	$(BIN)/ruff format --check flatland_ma baselines tests
 
 clean:
 	rm -rf $(VENV) demo .pytest_cache

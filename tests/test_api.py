@@ -101,6 +101,8 @@ def test_agents_whose_episode_ends_early_pass_the_checkers():
     )
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        parallel_api_test(flatland_ma.parallel_env("fruits_poisons_multi", **kwargs), num_cycles=300)
+        parallel_api_test(
+            flatland_ma.parallel_env("fruits_poisons_multi", **kwargs), num_cycles=300
+        )
         api_test(flatland_ma.env("fruits_poisons_multi", **kwargs), num_cycles=300)
     seed_test(lambda: flatland_ma.env("fruits_poisons_multi", **kwargs), num_cycles=300)

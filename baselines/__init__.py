@@ -1,0 +1,14 @@
+"""Baselines that reproduce the Flatland paper's experiment on ``fruits_poisons``.
+
+One readable file per algorithm, after CleanRL: ``dqn.py`` (keras-rl's DQN),
+``a3c.py`` (universe-starter-agent's A3C, with a synchronous A2C mode), ``dfp.py``
+(Direct Future Prediction), ``ppo.py`` (shared-parameter PPO for several agents).
+``common.py`` holds the pieces they share; ``run.py`` runs many seeds and ``plot.py``
+draws the paper's figure and the results table.
+
+    python -m baselines.dqn --seed 0 --total-timesteps 250000
+    python -m baselines.run dqn --seeds 30 --workers 2 --steps 250000 --out runs
+    python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons
+"""
+
+ALGORITHMS = ("dqn", "a3c", "dfp", "ppo")

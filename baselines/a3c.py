@@ -1,0 +1,291 @@
+"""A3C on a single-agent Flatland scenario, as the paper trained it with
+universe-starter-agent, and a synchronous A2C mode of the same loss.
+
+``--mode a3c`` (the paper's): 5 actor-learner processes, each with its own environment,
+its own copy of the network and its own Adam state, apply their gradients to one set of
+parameters in shared memory without locks (Hogwild). Each syncs its copy, acts 20 steps,
+and updates. Runs are not reproducible: the processes interleave as the OS schedules them.
+
+``--mode a2c``: the same 5 environments stepped in lockstep in one process, one update of
+the same loss on all 5 x 20 steps; reproducible from the seed.
+
+    python -m baselines.a3c --seed 0 --total-timesteps 250000
+    python -m baselines.a3c --mode a2c --seed 0
+"""
+
+from __future__ import annotations
+
+import queue
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.multiprocessing as mp
+import torch.nn.functional as F
+from torch import nn
+
+from baselines.common import (
+    RunLog,
+    conv_trunk,
+    default_csv,
+    input_channels,
+    keras_init,
+    make_env,
+    parse_args,
+    seed_everything,
+    to_input,
+    trunk_length,
+)
+
+
+@dataclass
+class Args:
+    scenario: str = "fruits_poisons"
+    """Single-agent scenario to train on."""
+    seed: int = 0
+    """Seeds torch and numpy; environment k of the run is reset with seed * num_workers + k."""
+    total_timesteps: int = 250_000
+    """Environment steps to train for, summed over all actor-learners."""
+    csv: str = ""
+    """Where to write the episode log; empty means runs/<mode>/<scenario>/seed_<seed>.csv."""
+    mode: str = "a3c"
+    """a3c: asynchronous processes sharing parameters (Hogwild); a2c: synchronous, one process."""
+    use_depth: bool = False
+    """Give the network the depth channel too (the paper's input is the colour image)."""
+    num_workers: int = 5
+    """Actor-learners (the paper: 5 threads); in a2c mode, environments stepped together."""
+    num_steps: int = 20
+    """Steps between updates, t_max (the paper: 20)."""
+    learning_rate: float = 1e-5
+    """Adam learning rate (the paper; betas 0.9, 0.999)."""
+    gamma: float = 0.99
+    """Discount factor (the paper)."""
+    ent_coef: float = 0.01
+    """Entropy regularisation weight (the paper: 0.01)."""
+    vf_coef: float = 0.5
+    """Weight of the value loss 1/2 sum (R - V)^2 (universe-starter-agent's 0.5)."""
+    max_grad_norm: float = 40.0
+    """Gradients are clipped to this global norm (universe-starter-agent's 40)."""
+    hidden: int = 128
+    """Units of the fully connected layer that replaces the LSTM (the paper: 128)."""
+
+
+class ActorCritic(nn.Module):
+    """Conv1D(32, 8) - Conv1D(48, 4) - Conv1D(64, 3) - Dense(128), ELU activations as in
+    universe-starter-agent, then a softmax policy and a value. Glorot-uniform hidden layers;
+    output rows of norm 0.01 (policy) and 1 (value), as that implementation initialises them."""
+
+    def __init__(self, channels: int, rays: int, actions: int, hidden: int):
+        super().__init__()
+        self.body = nn.Sequential(
+            conv_trunk(channels, nn.ELU),
+            nn.Flatten(),
+            nn.Linear(64 * trunk_length(rays), hidden),
+            nn.ELU(),
+        )
+        self.policy = nn.Linear(hidden, actions)
+        self.value = nn.Linear(hidden, 1)
+        keras_init(self)
+        with torch.no_grad():
+            for head, norm in ((self.policy, 0.01), (self.value, 1.0)):
+                weight = torch.randn_like(head.weight)
+                head.weight.copy_(weight * norm / weight.norm(dim=1, keepdim=True))
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        h = self.body(x)
+        return self.policy(h), self.value(h).squeeze(-1)
+
+
+class Actors:
+    """Environments stepped together, with their current inputs and running returns."""
+
+    def __init__(self, args: Args, ranks: list[int]):
+        self.envs = [make_env(args.scenario) for _ in ranks]
+        self.use_depth, self.gamma = args.use_depth, args.gamma
+        self.x = [
+            to_input(env.reset(seed=args.seed * args.num_workers + k)[0], args.use_depth)
+            for env, k in zip(self.envs, ranks)
+        ]
+        self.returns = [0.0 for _ in ranks]
+
+    def rollout(self, model: ActorCritic, num_steps: int, on_episode):
+        """Act ``num_steps`` steps in every env; ``on_episode(steps_so_far, return, info)`` is
+        called at each episode end. Returns inputs (T*N, C, L), actions (T*N,) and the
+        n-step returns (T*N,), bootstrapped from V of the last state and through the step
+        limit (a truncation), cut at terminations."""
+        n = len(self.envs)
+        inputs, actions, rewards, dones = [], [], np.zeros((num_steps, n)), np.zeros((num_steps, n))
+        for t in range(num_steps):
+            x = torch.from_numpy(np.stack(self.x))
+            with torch.no_grad():
+                logits, _ = model(x)
+            action = torch.distributions.Categorical(logits=logits).sample()
+            inputs.append(x)
+            actions.append(action)
+            for e, env in enumerate(self.envs):
+                observation, reward, terminated, truncated, info = env.step(int(action[e]))
+                self.returns[e] += reward
+                self.x[e] = to_input(observation, self.use_depth)
+                if truncated and not terminated:  # r + gamma V(s_T): the episode goes on unseen
+                    with torch.no_grad():
+                        reward += self.gamma * float(model(torch.from_numpy(self.x[e])[None])[1])
+                rewards[t, e], dones[t, e] = reward, terminated or truncated
+                if terminated or truncated:
+                    on_episode(t * n + e + 1, self.returns[e], info)
+                    self.returns[e] = 0.0
+                    self.x[e] = to_input(env.reset()[0], self.use_depth)
+        with torch.no_grad():
+            _, next_value = model(torch.from_numpy(np.stack(self.x)))
+        # R_t = r_t + gamma (1 - done_t) R_{t+1}, with R_T = V(s_T)
+        returns, running = np.zeros((num_steps, n)), next_value.numpy().astype(np.float64)
+        for t in reversed(range(num_steps)):
+            running = rewards[t] + self.gamma * (1.0 - dones[t]) * running
+            returns[t] = running
+        return (
+            torch.cat(inputs),
+            torch.cat(actions),
+            torch.from_numpy(returns.reshape(-1)).float(),
+        )
+
+    @property
+    def env_seconds(self) -> float:
+        return sum(env.seconds for env in self.envs)
+
+
+def a2c_loss(model: ActorCritic, x, actions, returns, args: Args) -> torch.Tensor:
+    """universe-starter-agent's loss, summed over the batch (advantage A = R - V(s)):
+    -sum log pi(a|s) A  +  vf_coef * 1/2 sum (R - V(s))^2  -  ent_coef * sum H(pi(.|s))."""
+    logits, values = model(x)
+    log_probs = F.log_softmax(logits, dim=-1)
+    advantages = returns - values.detach()
+    policy_loss = -(log_probs.gather(1, actions[:, None]).squeeze(1) * advantages).sum()
+    value_loss = 0.5 * (returns - values).square().sum()
+    entropy = -(log_probs.exp() * log_probs).sum()
+    return policy_loss + args.vf_coef * value_loss - args.ent_coef * entropy
+
+
+def worker(rank: int, args: Args, shape: tuple, shared_model: ActorCritic, steps, messages):
+    """One A3C actor-learner: sync, act t_max steps, push gradients to the shared model."""
+    seed_everything(args.seed * args.num_workers + rank)
+    actors = Actors(args, [rank])
+    model = ActorCritic(*shape)
+    # Each actor-learner has its own Adam state, as in universe-starter-agent.
+    optimizer = torch.optim.Adam(
+        shared_model.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
+    )
+    start = time.perf_counter()
+
+    def on_episode(offset, episode_return, info):
+        messages.put(("episode", steps.value + offset, episode_return, dict(info)))
+
+    while steps.value < args.total_timesteps:
+        model.load_state_dict(shared_model.state_dict())
+        x, actions, returns = actors.rollout(model, args.num_steps, on_episode)
+        loss = a2c_loss(model, x, actions, returns, args)
+        model.zero_grad(set_to_none=True)
+        loss.backward()
+        nn.utils.clip_grad_norm_(model.parameters(), args.max_grad_norm)
+        for shared, local in zip(shared_model.parameters(), model.parameters()):
+            shared.grad = local.grad
+        optimizer.step()  # Hogwild: no lock around the shared parameters
+        with steps.get_lock():
+            steps.value += len(actions)
+    messages.put(("done", rank, actors.env_seconds, time.perf_counter() - start))
+
+
+def train_a3c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
+    """Start the actor-learners, log their episodes; return (env seconds, busy seconds)."""
+    shared_model = ActorCritic(*shape)
+    shared_model.share_memory()
+    context = mp.get_context("spawn")
+    steps, messages = context.Value("q", 0), context.Queue()
+    processes = [
+        context.Process(target=worker, args=(rank, args, shape, shared_model, steps, messages))
+        for rank in range(args.num_workers)
+    ]
+    for process in processes:
+        process.start()
+    env_seconds, busy_seconds, finished, step = 0.0, 0.0, 0, 0
+    while finished < args.num_workers:
+        try:
+            message = messages.get(timeout=5.0)
+        except queue.Empty:
+            if any(p.exitcode not in (None, 0) for p in processes):
+                raise RuntimeError("an actor-learner process failed") from None
+            continue
+        if message[0] == "episode":
+            # The shared counter when the episode ended, kept monotonic: under Hogwild the
+            # actor-learners read it at slightly different moments.
+            step = max(step, message[1])
+            _, _, episode_return, info = message
+            log.episode(step, episode_return, info)
+            print(
+                f"step={step} return={episode_return:g} fruits={info['fruits']} "
+                f"poisons={info['poisons']}",
+                flush=True,
+            )
+        else:
+            env_seconds, busy_seconds = env_seconds + message[2], busy_seconds + message[3]
+            finished += 1
+    for process in processes:
+        process.join()
+    return env_seconds, busy_seconds
+
+
+def train_a2c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
+    """All actors in one process, one synchronous update per rollout."""
+    start = time.perf_counter()
+    model = ActorCritic(*shape)
+    optimizer = torch.optim.Adam(
+        model.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
+    )
+    actors = Actors(args, list(range(args.num_workers)))
+    global_step = 0
+
+    def on_episode(offset, episode_return, info):  # reads global_step when called
+        log.episode(global_step + offset, episode_return, info)
+        print(
+            f"step={global_step + offset} return={episode_return:g} "
+            f"fruits={info['fruits']} poisons={info['poisons']}",
+            flush=True,
+        )
+
+    while global_step < args.total_timesteps:
+        x, actions, returns = actors.rollout(model, args.num_steps, on_episode)
+        loss = a2c_loss(model, x, actions, returns, args)
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        nn.utils.clip_grad_norm_(model.parameters(), args.max_grad_norm)
+        optimizer.step()
+        global_step += len(actions)
+    return actors.env_seconds, time.perf_counter() - start
+
+
+def main(args: Args) -> dict:
+    if args.mode not in ("a3c", "a2c"):
+        raise ValueError(f"mode must be a3c or a2c, not {args.mode!r}")
+    seed_everything(args.seed)
+    probe = make_env(args.scenario)
+    shape = (
+        input_channels(args.use_depth),
+        probe.observation_space.shape[0],
+        int(probe.action_space.n),
+        args.hidden,
+    )
+    probe.close()
+    csv_path = args.csv or default_csv(args.mode, args.scenario, args.seed)
+    log = RunLog(args.mode, csv_path, args.seed, args)
+    train = train_a3c if args.mode == "a3c" else train_a2c
+    env_seconds, busy_seconds = train(args, log, shape)
+    summary = log.close(args.total_timesteps, env_seconds, busy_seconds)
+    print(
+        f"done: {args.total_timesteps} steps in {summary['wall_seconds']:.0f} s, "
+        f"env {summary['env_share']:.1%} of the actors' time",
+        flush=True,
+    )
+    return summary
+
+
+if __name__ == "__main__":
+    main(parse_args(Args))

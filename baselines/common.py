@@ -1,0 +1,254 @@
+"""Pieces every baseline shares: arguments, seeding, the timed env, the paper's conv trunk,
+input normalisation, and the per-run CSV log.
+
+A run writes ``<csv>.part`` while it trains, one row per finished episode and agent
+(``CSV_COLUMNS``), and renames it to ``<csv>`` when it completes; beside it a JSON file
+records the arguments, the steps done, the wall time and the seconds spent inside the
+environment. ``baselines.run`` resumes by skipping seeds whose CSV exists.
+"""
+
+from __future__ import annotations
+
+import argparse
+import ast
+import csv
+import dataclasses
+import inspect
+import json
+import os
+import random
+import textwrap
+import time
+from pathlib import Path
+
+import gymnasium
+import numpy as np
+import torch
+from torch import nn
+
+import flatland_ma
+from flatland_ma.registration import gym_id
+
+CSV_COLUMNS = ("seed", "episode", "step", "agent", "return", "fruits", "poisons", "wall_time")
+"""One row per finished episode and agent; ``step`` counts agent-steps since the start."""
+
+CONV_CHANNELS = (32, 48, 64)
+CONV_KERNELS = (8, 4, 3)
+
+
+# -- arguments ---------------------------------------------------------------------------
+
+
+def field_docs(cls) -> dict[str, str]:
+    """The docstring written under each field of a dataclass, by field name."""
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    body = tree.body[0].body
+    docs = {}
+    for node, after in zip(body, body[1:]):
+        if (
+            isinstance(node, ast.AnnAssign)
+            and isinstance(after, ast.Expr)
+            and isinstance(after.value, ast.Constant)
+            and isinstance(after.value.value, str)
+        ):
+            docs[node.target.id] = " ".join(after.value.value.split())
+    return docs
+
+
+def parse_args(cls, argv: list[str] | None = None):
+    """Command-line flags from a dataclass of arguments: ``total_timesteps`` becomes
+    ``--total-timesteps``, booleans get ``--flag/--no-flag``, help comes from the docstrings."""
+    parser = argparse.ArgumentParser(description=inspect.getdoc(inspect.getmodule(cls)))
+    docs = field_docs(cls)
+    for field in dataclasses.fields(cls):
+        flag = "--" + field.name.replace("_", "-")
+        help_text = f"{docs.get(field.name, '')} (default: {field.default})".replace("%", "%%")
+        if field.type in (bool, "bool"):
+            parser.add_argument(
+                flag, default=field.default, action=argparse.BooleanOptionalAction, help=help_text
+            )
+        else:
+            kind = {"int": int, "float": float, "str": str}.get(str(field.type), str)
+            parser.add_argument(flag, type=kind, default=field.default, help=help_text)
+    return cls(**vars(parser.parse_args(argv)))
+
+
+# -- seeding and the environment ---------------------------------------------------------
+
+
+def seed_everything(seed: int) -> None:
+    """Fix Python's, numpy's and torch's generators, and run torch on one thread."""
+    random.seed(seed)
+    np.random.seed(seed)  # noqa: NPY002 - the legacy global generator, for any code using it
+    torch.manual_seed(seed)
+    torch.set_num_threads(1)
+
+
+class TimedEnv(gymnasium.Wrapper):
+    """Counts the wall-clock seconds spent inside ``reset`` and ``step``."""
+
+    def __init__(self, env: gymnasium.Env):
+        super().__init__(env)
+        self.seconds = 0.0
+
+    def reset(self, **kwargs):
+        start = time.perf_counter()
+        out = self.env.reset(**kwargs)
+        self.seconds += time.perf_counter() - start
+        return out
+
+    def step(self, action):
+        start = time.perf_counter()
+        out = self.env.step(action)
+        self.seconds += time.perf_counter() - start
+        return out
+
+
+def make_env(scenario: str) -> TimedEnv:
+    """The Gymnasium env of a single-agent scenario, timed."""
+    assert flatland_ma.GYM_IDS, "importing flatland_ma registers the Gymnasium ids"
+    return TimedEnv(gymnasium.make(gym_id(scenario)))
+
+
+def input_channels(use_depth: bool) -> int:
+    """RGB, plus depth when asked: the paper's DQN input is the (64, 3) colour image."""
+    return 4 if use_depth else 3
+
+
+def to_input(observation: np.ndarray, use_depth: bool) -> np.ndarray:
+    """(rays, 4) observation -> (channels, rays) float32, the layout of ``nn.Conv1d``."""
+    return np.ascontiguousarray(observation[..., : input_channels(use_depth)].swapaxes(-1, -2))
+
+
+# -- networks ----------------------------------------------------------------------------
+
+
+def conv_trunk(in_channels: int, activation: type[nn.Module] = nn.ReLU) -> nn.Sequential:
+    """The paper's 1-D convolutions: (32 filters, kernel 8) - (48, 4) - (64, 3), stride 1,
+    no padding: a 64-ray image becomes 64 channels of length 52."""
+    layers, channels = [], in_channels
+    for out_channels, kernel in zip(CONV_CHANNELS, CONV_KERNELS):
+        layers += [nn.Conv1d(channels, out_channels, kernel), activation()]
+        channels = out_channels
+    return nn.Sequential(*layers)
+
+
+def keras_init(module: nn.Module) -> None:
+    """Keras' default initialisation (Glorot uniform weights, zero biases), for the
+    baselines whose reference implementation is written in Keras."""
+    for layer in module.modules():
+        if isinstance(layer, (nn.Conv1d, nn.Linear)):
+            nn.init.xavier_uniform_(layer.weight)
+            nn.init.zeros_(layer.bias)
+
+
+def trunk_length(rays: int) -> int:
+    """Length of the trunk's output for an image of ``rays`` rays."""
+    return rays - sum(k - 1 for k in CONV_KERNELS)
+
+
+class RunningNormalizer:
+    """Per-element running mean and standard deviation of the inputs, as keras-rl's
+    ``WhiteningNormalizerProcessor`` (standard deviation floored at ``eps``)."""
+
+    def __init__(self, shape: tuple[int, ...], eps: float = 1e-2):
+        self.count = 0
+        self.sum = torch.zeros(shape, dtype=torch.float64)
+        self.sum_squares = torch.zeros(shape, dtype=torch.float64)
+        self.mean = torch.zeros(shape)
+        self.std = torch.ones(shape)
+        self.eps = eps
+
+    def update(self, x: torch.Tensor) -> None:
+        """Add one input (or a batch along the first axis) to the statistics."""
+        x = x.reshape(-1, *self.sum.shape).double()
+        self.count += x.shape[0]
+        self.sum += x.sum(0)
+        self.sum_squares += x.square().sum(0)
+        mean = self.sum / self.count
+        variance = (self.sum_squares / self.count - mean.square()).clamp(min=self.eps**2)
+        self.mean, self.std = mean.float(), variance.sqrt().float()
+
+    def __call__(self, x: torch.Tensor) -> torch.Tensor:
+        return (x - self.mean) / self.std
+
+
+# -- the run log -------------------------------------------------------------------------
+
+
+def default_csv(algorithm: str, scenario: str, seed: int) -> str:
+    return f"runs/{algorithm}/{scenario}/seed_{seed}.csv"
+
+
+class RunLog:
+    """Writes episode rows to ``<csv>.part`` as they finish; ``close`` renames it to
+    ``<csv>`` and writes the run's summary to ``<csv without .csv>.json``."""
+
+    def __init__(self, algorithm: str, csv_path: str, seed: int, args):
+        self.path = Path(csv_path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.part = self.path.with_name(self.path.name + ".part")
+        self.file = open(self.part, "w", newline="")
+        self.writer = csv.writer(self.file)
+        self.writer.writerow(CSV_COLUMNS)
+        self.file.flush()
+        self.algorithm, self.seed, self.args = algorithm, seed, args
+        self.start = time.perf_counter()
+        self.episodes = 0
+
+    def episode(
+        self,
+        step: int,
+        episode_return: float,
+        info: dict,
+        agent: str = "agent_0",
+        episode: int | None = None,
+    ) -> None:
+        """One finished episode of one agent; ``episode`` defaults to a running count."""
+        if episode is None:
+            episode = self.episodes
+            self.episodes += 1
+        wall = time.perf_counter() - self.start
+        self.writer.writerow(
+            [
+                self.seed,
+                episode,
+                step,
+                agent,
+                f"{episode_return:g}",
+                int(info["fruits"]),
+                int(info["poisons"]),
+                f"{wall:.2f}",
+            ]
+        )
+        self.file.flush()
+
+    def close(self, steps: int, env_seconds: float, busy_seconds: float | None = None) -> dict:
+        """Finish the run. ``busy_seconds`` is the time ``env_seconds`` is a share of
+        (by default the run's wall time; summed over processes for A3C)."""
+        wall = time.perf_counter() - self.start
+        busy = wall if busy_seconds is None else busy_seconds
+        summary = {
+            "algorithm": self.algorithm,
+            "args": dataclasses.asdict(self.args),
+            "steps": steps,
+            "wall_seconds": round(wall, 2),
+            "env_seconds": round(env_seconds, 2),
+            "env_share": round(env_seconds / max(busy, 1e-9), 4),
+            "torch_threads": torch.get_num_threads(),
+            "cpu": _cpu_name(),
+        }
+        self.file.close()
+        self.path.with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
+        os.replace(self.part, self.path)
+        return summary
+
+
+def _cpu_name() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return "unknown"

@@ -1,0 +1,188 @@
+"""DQN on a single-agent Flatland scenario, as the paper trained it with keras-rl.
+
+Double DQN (keras-rl's default) with a Boltzmann policy, soft target updates after every
+training step, one update of 32 transitions per environment step once 1,500 warm-up steps
+are in the replay buffer, and inputs whitened by a running mean and standard deviation.
+
+    python -m baselines.dqn --seed 0 --total-timesteps 250000
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from baselines.common import (
+    RunLog,
+    RunningNormalizer,
+    conv_trunk,
+    default_csv,
+    input_channels,
+    keras_init,
+    make_env,
+    parse_args,
+    seed_everything,
+    to_input,
+    trunk_length,
+)
+
+
+@dataclass
+class Args:
+    scenario: str = "fruits_poisons"
+    """Single-agent scenario to train on (its Gymnasium id is registered by flatland_ma)."""
+    seed: int = 0
+    """Seeds torch, numpy and the environment (``reset(seed=seed)``)."""
+    total_timesteps: int = 250_000
+    """Environment steps to train for (the paper: 500 episodes of 500 steps)."""
+    csv: str = ""
+    """Where to write the episode log; empty means runs/dqn/<scenario>/seed_<seed>.csv."""
+    use_depth: bool = False
+    """Give the network the depth channel too; the paper's input is the (64, 3) colour image."""
+    normalize_inputs: bool = True
+    """Whiten inputs with a running per-element mean and std (the paper: "normalization of
+    inputs"; keras-rl's WhiteningNormalizerProcessor), updated with every new observation."""
+    learning_rate: float = 1e-3
+    """Adam learning rate (the paper; betas 0.9, 0.999)."""
+    buffer_size: int = 500_000
+    """Replay buffer capacity (the paper). It never fills within 250k steps."""
+    gamma: float = 0.99
+    """Discount factor (the paper)."""
+    tau: float = 0.01
+    """Soft target update rate after every training step (the paper: 0.01)."""
+    temperature: float = 1.0
+    """Boltzmann (softmax) policy temperature (the paper: 1)."""
+    batch_size: int = 32
+    """Transitions per update (keras-rl's default; the paper does not say)."""
+    learning_starts: int = 1500
+    """Warm-up steps before the first update; the Boltzmann policy acts from the start, as in
+    keras-rl (the paper: 1500)."""
+    train_frequency: int = 1
+    """Environment steps per update (keras-rl's default ``train_interval=1``)."""
+    double_q: bool = True
+    """Double DQN targets (keras-rl's default ``enable_double_dqn=True``)."""
+
+
+class QNetwork(nn.Module):
+    """The paper's DQN: Conv1D(32, 8) - Conv1D(48, 4) - Conv1D(64, 3) - MaxPool1D(2) -
+    Dense(actions), ReLU after each convolution, Keras' initialisation."""
+
+    def __init__(self, channels: int, rays: int, actions: int):
+        super().__init__()
+        self.trunk = conv_trunk(channels)
+        self.pool = nn.MaxPool1d(2)
+        self.head = nn.Linear(64 * (trunk_length(rays) // 2), actions)
+        keras_init(self)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.pool(self.trunk(x)).flatten(1))
+
+
+def boltzmann(q_values: np.ndarray, temperature: float, rng: np.random.Generator) -> int:
+    """Sample an action with probability proportional to exp(Q / temperature)."""
+    logits = q_values / temperature
+    p = np.exp(logits - logits.max())
+    return int(rng.choice(len(p), p=p / p.sum()))
+
+
+def main(args: Args) -> dict:
+    seed_everything(args.seed)
+    rng = np.random.default_rng(args.seed)
+    env = make_env(args.scenario)
+    rays, n_actions = env.observation_space.shape[0], int(env.action_space.n)
+    channels = input_channels(args.use_depth)
+    log = RunLog("dqn", args.csv or default_csv("dqn", args.scenario, args.seed), args.seed, args)
+
+    q_network = QNetwork(channels, rays, n_actions)
+    target_network = QNetwork(channels, rays, n_actions)
+    target_network.load_state_dict(q_network.state_dict())
+    optimizer = torch.optim.Adam(
+        q_network.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
+    )
+    normalize = RunningNormalizer((channels, rays))
+
+    capacity = min(args.buffer_size, args.total_timesteps)
+    observations = np.zeros((capacity, channels, rays), np.float32)
+    next_observations = np.zeros((capacity, channels, rays), np.float32)
+    actions = np.zeros(capacity, np.int64)
+    rewards = np.zeros(capacity, np.float32)
+    terminateds = np.zeros(capacity, np.float32)
+
+    observation, info = env.reset(seed=args.seed)
+    x = to_input(observation, args.use_depth)
+    episode_return, start = 0.0, time.perf_counter()
+    for global_step in range(args.total_timesteps):
+        # Act: Boltzmann over the online network's Q-values.
+        x_t = torch.from_numpy(x)
+        if args.normalize_inputs:
+            normalize.update(x_t)
+        with torch.no_grad():
+            q = q_network(normalize(x_t[None]) if args.normalize_inputs else x_t[None])[0]
+        action = boltzmann(q.numpy(), args.temperature, rng)
+        observation, reward, terminated, truncated, info = env.step(action)
+        next_x = to_input(observation, args.use_depth)
+
+        # Store. The step limit is a truncation: the target bootstraps through it.
+        slot = global_step % capacity
+        observations[slot], next_observations[slot] = x, next_x
+        actions[slot], rewards[slot], terminateds[slot] = action, reward, float(terminated)
+        episode_return += reward
+        x = next_x
+        if terminated or truncated:
+            log.episode(global_step + 1, episode_return, info)
+            print(
+                f"step={global_step + 1} return={episode_return:g} fruits={info['fruits']} "
+                f"poisons={info['poisons']}",
+                flush=True,
+            )
+            episode_return = 0.0
+            observation, info = env.reset()
+            x = to_input(observation, args.use_depth)
+
+        if global_step + 1 < args.learning_starts or global_step % args.train_frequency:
+            continue
+        # Learn: one double-DQN step on a uniform minibatch, then a soft target update.
+        index = rng.integers(0, min(global_step + 1, capacity), args.batch_size)
+        s = torch.from_numpy(observations[index])
+        s_next = torch.from_numpy(next_observations[index])
+        if args.normalize_inputs:
+            s, s_next = normalize(s), normalize(s_next)
+        a = torch.from_numpy(actions[index])
+        r = torch.from_numpy(rewards[index])
+        not_done = 1.0 - torch.from_numpy(terminateds[index])
+        with torch.no_grad():
+            q_next_target = target_network(s_next)
+            if args.double_q:
+                a_next = q_network(s_next).argmax(1, keepdim=True)
+            else:
+                a_next = q_next_target.argmax(1, keepdim=True)
+            # y = r + gamma * Q_target(s', a*), a* = argmax_a Q_online(s', a) (double DQN)
+            y = r + args.gamma * not_done * q_next_target.gather(1, a_next).squeeze(1)
+        q_taken = q_network(s).gather(1, a[:, None]).squeeze(1)
+        loss = 0.5 * F.mse_loss(q_taken, y)  # keras-rl: Huber with infinite clip = 1/2 x^2
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        with torch.no_grad():  # target <- (1 - tau) target + tau online
+            for target_param, param in zip(target_network.parameters(), q_network.parameters()):
+                target_param.lerp_(param, args.tau)
+
+    total = time.perf_counter() - start
+    summary = log.close(args.total_timesteps, env.seconds)
+    print(
+        f"done: {args.total_timesteps} steps in {total:.0f} s "
+        f"({1000 * total / args.total_timesteps:.2f} s per 1k steps), "
+        f"env {summary['env_share']:.1%} of it",
+        flush=True,
+    )
+    env.close()
+    return summary
+
+
+if __name__ == "__main__":
+    main(parse_args(Args))

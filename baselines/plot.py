@@ -1,0 +1,257 @@
+"""The paper's figure and a results table from the runs' CSVs.
+
+    python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons \\
+        runs/dfp/fruits_poisons --references 20 --out docs/images/results_fruits_poisons.png
+
+Each RUNS argument is a directory of ``seed_*.csv`` (one algorithm on one scenario). Per
+seed, an episode's return is the mean over its agents. The figure shows, per algorithm,
+the mean over seeds of the return per episode (after a trailing moving average of
+``--smooth`` episodes within each seed) with a 95% t-interval band, over the episodes
+every seed completed. The table (Markdown, printed) gives per algorithm:
+
+- final return: per seed the mean return of the last ``--final`` fraction of its
+  episodes, then the mean over seeds +- the 95% t-interval half-width;
+- steps to 80% of final: the first episode at which the smoothed mean curve reaches 80%
+  of the final return, as the mean over seeds of the steps done by then;
+- wall time per seed and the share of it spent in the environment (from the JSON files).
+
+``--references N`` also plays N episodes of the scripted greedy policy and of uniform
+random actions on the same scenario, draws them as lines and adds them to the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+
+
+@dataclass
+class Run:
+    seed: int
+    steps: np.ndarray
+    """Per episode, the agent-steps done when it ended."""
+    returns: np.ndarray
+    """Per episode, the mean over agents of their returns."""
+    fruits: np.ndarray
+    poisons: np.ndarray
+    agent_returns: dict[str, np.ndarray]
+    """Per agent, its return in each episode."""
+    summary: dict
+    """The run's JSON summary (arguments, wall time, env share), if written."""
+
+
+def load_runs(directory: Path) -> list[Run]:
+    runs = []
+    for path in sorted(directory.glob("seed_*.csv"), key=lambda p: int(p.stem.split("_")[1])):
+        by_episode = defaultdict(list)
+        with open(path, newline="") as f:
+            for row in csv.DictReader(f):
+                by_episode[int(row["episode"])].append(row)
+        episodes = [by_episode[k] for k in sorted(by_episode)]
+        agents = sorted({row["agent"] for rows in episodes for row in rows})
+
+        def per_episode(column, rows_of=episodes):
+            return np.array([np.mean([float(r[column]) for r in rows]) for rows in rows_of])
+
+        summary_path = path.with_suffix(".json")
+        runs.append(
+            Run(
+                seed=int(path.stem.split("_")[1]),
+                steps=per_episode("step"),
+                returns=per_episode("return"),
+                fruits=per_episode("fruits"),
+                poisons=per_episode("poisons"),
+                agent_returns={
+                    a: np.array(
+                        [float(r["return"]) for rows in episodes for r in rows if r["agent"] == a]
+                    )
+                    for a in agents
+                },
+                summary=json.loads(summary_path.read_text()) if summary_path.exists() else {},
+            )
+        )
+    return runs
+
+
+def smooth(x: np.ndarray, window: int) -> np.ndarray:
+    """Trailing moving average; the first values average what is there so far."""
+    sums = np.cumsum(np.insert(np.asarray(x, np.float64), 0, 0.0))
+    index = np.arange(1, len(x) + 1)
+    return (sums[index] - sums[np.maximum(0, index - window)]) / np.minimum(index, window)
+
+
+def t_interval(samples: np.ndarray, axis: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and the half-width of its 95% t-interval along ``axis`` (0 if one sample)."""
+    samples = np.asarray(samples, np.float64)
+    n = samples.shape[axis]
+    mean = samples.mean(axis)
+    if n < 2:
+        return mean, np.zeros_like(mean)
+    sem = samples.std(axis, ddof=1) / np.sqrt(n)
+    return mean, stats.t.ppf(0.975, n - 1) * sem
+
+
+def curve(runs: list[Run], window: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Episodes 1..n (n completed by every seed), mean smoothed return, CI half-width."""
+    n = min(len(run.returns) for run in runs)
+    matrix = np.stack([smooth(run.returns, window)[:n] for run in runs])
+    mean, half = t_interval(matrix)
+    return np.arange(1, n + 1), mean, half
+
+
+def summarise(label: str, runs: list[Run], window: int, final: float) -> dict:
+    finals = np.array([r.returns[-max(1, int(len(r.returns) * final)) :].mean() for r in runs])
+    fruits = np.mean([r.fruits[-max(1, int(len(r.fruits) * final)) :].mean() for r in runs])
+    poisons = np.mean([r.poisons[-max(1, int(len(r.poisons) * final)) :].mean() for r in runs])
+    final_mean, final_half = t_interval(finals)
+    episodes, mean, _ = curve(runs, window)
+    reached = np.flatnonzero(mean >= 0.8 * final_mean) if final_mean > 0 else []
+    to_80 = np.mean([r.steps[reached[0]] for r in runs]) if len(reached) else None
+    walls = [r.summary["wall_seconds"] for r in runs if "wall_seconds" in r.summary]
+    shares = [r.summary["env_share"] for r in runs if "env_share" in r.summary]
+    return {
+        "label": label,
+        "seeds": len(runs),
+        "steps": int(np.median([r.summary.get("steps", r.steps[-1]) for r in runs])),
+        "episodes": int(np.median([len(r.returns) for r in runs])),
+        "final": (float(final_mean), float(final_half)),
+        "fruits_poisons": (float(fruits), float(poisons)),
+        "steps_to_80": to_80,
+        "wall_minutes": (np.mean(walls) / 60, np.std(walls) / 60) if walls else None,
+        "env_share": float(np.mean(shares)) if shares else None,
+    }
+
+
+def references(scenario: str, episodes: int) -> list[dict]:
+    """The scripted greedy policy and uniform random actions, ``episodes`` episodes each."""
+    import flatland_ma
+    from flatland_ma.policies import GreedyForager, RandomPolicy, evaluate
+
+    rows = []
+    for label, make in (
+        ("scripted greedy", lambda env: lambda agent: GreedyForager(env.spec)),
+        ("uniform random", lambda env: lambda agent: RandomPolicy(env.action_space(agent), seed=0)),
+    ):
+        env = flatland_ma.parallel_env(scenario)
+        scores = evaluate(env, make(env), episodes=episodes, seed=10_000)
+        mean, half = t_interval(np.array(scores.returns))
+        fruits = np.mean([np.mean([i["fruits"] for i in info.values()]) for info in scores.infos])
+        poisons = np.mean([np.mean([i["poisons"] for i in info.values()]) for info in scores.infos])
+        rows.append(
+            {
+                "label": label,
+                "episodes": episodes,
+                "final": (float(mean), float(half)),
+                "fruits_poisons": (float(fruits), float(poisons)),
+            }
+        )
+    return rows
+
+
+def table(rows: list[dict], reference_rows: list[dict]) -> str:
+    lines = [
+        "| algorithm | seeds x steps (episodes) | final return (mean ± 95% CI) | fruits / poisons "
+        "per episode (final) | steps to 80% of final | wall time per seed | env share |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        to_80 = f"{r['steps_to_80'] / 1000:.0f}k" if r["steps_to_80"] is not None else "not reached"
+        wall = "{:.1f} ± {:.1f} min".format(*r["wall_minutes"]) if r["wall_minutes"] else "-"
+        share = f"{r['env_share']:.1%}" if r["env_share"] is not None else "-"
+        lines.append(
+            f"| {r['label']} | {r['seeds']} x {r['steps'] / 1000:g}k ({r['episodes']}) | "
+            f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
+            f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | "
+            f"{to_80} | {wall} | {share} |"
+        )
+    for r in reference_rows:
+        lines.append(
+            f"| {r['label']} (no learning) | {r['episodes']} episodes | "
+            f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
+            f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | - | - | - |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("runs", nargs="+", type=Path, help="directories of seed_*.csv")
+    parser.add_argument("--labels", nargs="*", help="one label per directory (default: its name)")
+    parser.add_argument("--out", type=Path, default=Path("results.png"), help="PNG to write")
+    parser.add_argument("--smooth", type=int, default=10, help="moving average, episodes")
+    parser.add_argument(
+        "--final",
+        type=float,
+        default=0.1,
+        help="fraction of the last episodes that make the final return",
+    )
+    parser.add_argument(
+        "--references",
+        type=int,
+        default=0,
+        help="episodes of greedy and random play to draw (0: none)",
+    )
+    parser.add_argument(
+        "--by-agent",
+        action="store_true",
+        help="also draw each agent's mean return (multi-agent runs)",
+    )
+    parser.add_argument("--title", default=None, help="figure title (default: the scenario)")
+    args = parser.parse_args(argv)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = args.labels or [d.parent.name for d in args.runs]
+    figure, axes = plt.subplots(figsize=(7, 4.2))
+    rows, scenario = [], None
+    for directory, label in zip(args.runs, labels):
+        runs = load_runs(directory)
+        if not runs:
+            raise SystemExit(f"no seed_*.csv in {directory}")
+        scenario = scenario or runs[0].summary.get("args", {}).get("scenario", directory.name)
+        episodes, mean, half = curve(runs, args.smooth)
+        line = axes.plot(episodes, mean, label=f"{label} ({len(runs)} seeds)")[0]
+        axes.fill_between(episodes, mean - half, mean + half, color=line.get_color(), alpha=0.25)
+        if args.by_agent and len(runs[0].agent_returns) > 1:
+            for agent in sorted(runs[0].agent_returns):
+                n = min(len(r.agent_returns[agent]) for r in runs)
+                per_seed = [smooth(r.agent_returns[agent], args.smooth)[:n] for r in runs]
+                axes.plot(
+                    np.arange(1, n + 1),
+                    np.mean(per_seed, 0),
+                    lw=0.8,
+                    alpha=0.7,
+                    label=f"{label} {agent}",
+                )
+        rows.append(summarise(label, runs, args.smooth, args.final))
+    reference_rows = references(scenario, args.references) if args.references else []
+    for r, style in zip(reference_rows, ("--", ":")):
+        axes.axhline(
+            r["final"][0], color="gray", ls=style, lw=1, label=f"{r['label']} ({r['final'][0]:.0f})"
+        )
+    axes.set_xlabel("episode (500 steps)")
+    axes.set_ylabel(f"return per episode\n(mean over seeds, {args.smooth}-episode average)")
+    axes.set_title(args.title or f"{scenario}: mean and 95% t-interval over seeds")
+    axes.grid(alpha=0.3)
+    axes.legend(fontsize=8, loc="best")
+    figure.tight_layout()
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(args.out, dpi=150)
+    print(f"wrote {args.out}\n")
+    print(table(rows, reference_rows))
+
+
+if __name__ == "__main__":
+    main()

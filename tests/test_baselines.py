@@ -1,0 +1,246 @@
+"""The baselines, each trained for a tiny budget in a subprocess, judged by the CSV it writes;
+the runner and the plot on those CSVs; and (slow) DQN learning to beat random play."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+pytest.importorskip("supersuit")
+
+ROOT = Path(__file__).resolve().parent.parent
+COLUMNS = ["seed", "episode", "step", "agent", "return", "fruits", "poisons", "wall_time"]
+ENV = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def run_module(module: str, *args: str, timeout: float = 120) -> str:
+    result = subprocess.run(
+        [sys.executable, "-m", module, *args],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+    assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
+    return result.stdout
+
+
+def read_log(path: Path) -> list[dict]:
+    """The rows of a finished run's CSV, checked for the columns and their meaning."""
+    assert path.exists() and not path.with_name(path.name + ".part").exists()
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        assert reader.fieldnames == COLUMNS
+        rows = list(reader)
+    for row in rows:
+        fruits, poisons = int(row["fruits"]), int(row["poisons"])
+        assert fruits >= 0 and poisons >= 0
+        # fruits_poisons: +10 a fruit, -10 a poison; the counters come from the env's infos.
+        assert float(row["return"]) == 10 * (fruits - poisons), row
+        assert float(row["wall_time"]) >= 0
+    steps = [int(r["step"]) for r in rows]
+    assert steps == sorted(steps)
+    return rows
+
+
+def summary(path: Path) -> dict:
+    data = json.loads(path.with_suffix(".json").read_text())
+    assert data["wall_seconds"] > 0 and 0 < data["env_share"] < 1
+    return data
+
+
+def test_dqn_trains_and_logs_each_episode(tmp_path):
+    out = tmp_path / "seed_3.csv"
+    stdout = run_module(
+        "baselines.dqn",
+        "--seed",
+        "3",
+        "--total-timesteps",
+        "1000",
+        "--learning-starts",
+        "900",
+        "--csv",
+        str(out),
+    )
+    rows = read_log(out)
+    assert [int(r["step"]) for r in rows] == [500, 1000]
+    assert {r["seed"] for r in rows} == {"3"} and {r["agent"] for r in rows} == {"agent_0"}
+    assert [r["episode"] for r in rows] == ["0", "1"]
+    assert summary(out)["steps"] == 1000
+    assert "done: 1000 steps" in stdout
+
+
+def test_dqn_with_the_depth_channel(tmp_path):
+    out = tmp_path / "seed_0.csv"
+    run_module(
+        "baselines.dqn",
+        "--use-depth",
+        "--total-timesteps",
+        "500",
+        "--learning-starts",
+        "450",
+        "--csv",
+        str(out),
+    )
+    assert len(read_log(out)) == 1
+    assert summary(out)["args"]["use_depth"] is True
+
+
+def test_a3c_processes_share_one_run_log(tmp_path):
+    out = tmp_path / "seed_0.csv"
+    run_module(
+        "baselines.a3c", "--num-workers", "2", "--total-timesteps", "3000", "--csv", str(out)
+    )
+    rows = read_log(out)
+    # However the two processes share the 3000 steps, whole 500-step episodes of theirs add
+    # up to at least (3000 - 2 x 499) / 500 of them.
+    assert len(rows) >= 5
+    assert max(int(r["step"]) for r in rows) <= 3000 + 2 * 20  # the last updates overshoot
+    assert summary(out)["algorithm"] == "a3c"
+
+
+def test_a2c_reproduces_exactly_from_a_seed(tmp_path):
+    logs = []
+    for name in ("first", "second"):
+        out = tmp_path / name / "seed_5.csv"
+        run_module(
+            "baselines.a3c",
+            "--mode",
+            "a2c",
+            "--seed",
+            "5",
+            "--num-workers",
+            "2",
+            "--learning-rate",
+            "1e-3",
+            "--total-timesteps",
+            "2000",
+            "--csv",
+            str(out),
+        )
+        logs.append(
+            [
+                (r["episode"], r["step"], r["return"], r["fruits"], r["poisons"])
+                for r in read_log(out)
+            ]
+        )
+    assert len(logs[0]) == 4  # 2 environments x 2 episodes
+    assert logs[0] == logs[1]
+    other = tmp_path / "other" / "seed_6.csv"
+    run_module(
+        "baselines.a3c",
+        "--mode",
+        "a2c",
+        "--seed",
+        "6",
+        "--num-workers",
+        "2",
+        "--learning-rate",
+        "1e-3",
+        "--total-timesteps",
+        "2000",
+        "--csv",
+        str(other),
+    )
+    assert [(r["fruits"], r["poisons"]) for r in read_log(other)] != [x[3:] for x in logs[0]]
+
+
+def test_dfp_trains_on_the_measurements(tmp_path):
+    out = tmp_path / "seed_1.csv"
+    run_module(
+        "baselines.dfp",
+        "--seed",
+        "1",
+        "--total-timesteps",
+        "1500",
+        "--learning-starts",
+        "1000",
+        "--csv",
+        str(out),
+    )
+    rows = read_log(out)
+    assert [int(r["step"]) for r in rows] == [500, 1000, 1500]
+
+
+def test_ppo_logs_every_agent_of_every_episode(tmp_path):
+    out = tmp_path / "seed_0.csv"
+    run_module(
+        "baselines.ppo",
+        "--scenario",
+        "fruits_poisons_multi",
+        "--num-envs",
+        "1",
+        "--num-steps",
+        "128",
+        "--total-timesteps",
+        "4096",
+        "--csv",
+        str(out),
+    )
+    rows = read_log(out)
+    assert [(r["episode"], r["agent"]) for r in rows] == [
+        (str(e), f"agent_{k}") for e in range(2) for k in range(4)
+    ]
+    assert [int(r["step"]) for r in rows] == [2000] * 4 + [4000] * 4  # agent-steps
+    assert sum(int(r["fruits"]) + int(r["poisons"]) for r in rows) > 0
+
+
+def test_runner_resumes_and_plot_draws_the_figure(tmp_path):
+    args = [
+        "dqn",
+        "--seeds",
+        "2",
+        "--workers",
+        "2",
+        "--steps",
+        "500",
+        "--out",
+        str(tmp_path),
+        "--",
+        "--learning-starts",
+        "450",
+    ]
+    run_module("baselines.run", *args)
+    directory = tmp_path / "dqn" / "fruits_poisons"
+    for seed in (0, 1):
+        assert len(read_log(directory / f"seed_{seed}.csv")) == 1
+        assert "done: 500 steps" in (directory / f"seed_{seed}.log").read_text()
+    stamp = (directory / "seed_0.csv").stat().st_mtime_ns
+    out = run_module("baselines.run", *args)
+    assert "2 of 2 seeds already complete" in out
+    assert (directory / "seed_0.csv").stat().st_mtime_ns == stamp
+
+    png = tmp_path / "figure.png"
+    table = run_module("baselines.plot", str(directory), "--smooth", "1", "--out", str(png))
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    (row,) = [line for line in table.splitlines() if line.startswith("| dqn |")]
+    assert "| 2 x 0.5k (1) |" in row
+
+
+@pytest.mark.slow
+def test_dqn_beats_random_play(tmp_path):
+    """30k steps (60 episodes) of the paper's DQN: its last 10 training episodes score
+    clearly more than 10 episodes of uniform random actions."""
+    from scipy import stats
+
+    import flatland_ma
+    from flatland_ma.policies import RandomPolicy, evaluate
+
+    out = tmp_path / "seed_0.csv"
+    run_module("baselines.dqn", "--total-timesteps", "30000", "--csv", str(out), timeout=1800)
+    dqn = np.array([float(r["return"]) for r in read_log(out)][-10:])
+    env = flatland_ma.parallel_env("fruits_poisons")
+    random_play = np.array(
+        evaluate(env, lambda a: RandomPolicy(env.action_space(a), seed=0), episodes=10).returns
+    )
+    test = stats.ttest_ind(dqn, random_play, equal_var=False, alternative="greater")
+    assert dqn.mean() > random_play.mean() + 30 and test.pvalue < 0.01, (dqn, random_play)
