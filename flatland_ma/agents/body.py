@@ -59,20 +59,24 @@ class AgentBody(Entity):
     def command_parts(self, head: float, joints, grips) -> None:
         """Motor rates as fractions of their top speeds; ``grips``: True closes a hand,
         False opens it, None leaves it."""
+        # Each body's angle read once (pymunk's accessors dominate this step's cost).
+        angles = {self.body: self.body.angle}
+        for part in self.parts:
+            angles[part.body] = part.body.angle
         if self.head is not None:
-            self._set_rate(self.head, head)
+            self._set_rate(self.head, head, angles)
         for part, rate in zip(self.joints, joints):
-            self._set_rate(part, rate)
+            self._set_rate(part, rate, angles)
         for hand, grip in zip(self.hands, grips):
             if grip is not None:
                 hand.closed = grip
 
-    def _set_rate(self, part, fraction: float) -> None:
+    def _set_rate(self, part, fraction: float, angles: dict) -> None:
         """Drive a joint at ``fraction`` of its top speed, slowed so as to stop at its
         limits by the end of the step (pymunk's motor rate is parent minus child)."""
         wanted = fraction * part.max_rate
         lo, hi = part.limits
-        angle = part.body.angle - part.parent.angle
+        angle = angles[part.body] - angles[part.parent]
         wanted = min(wanted, max(0.0, (hi - angle) / self.step_dt))
         wanted = max(wanted, min(0.0, (lo - angle) / self.step_dt))
         if part.rate != -wanted:

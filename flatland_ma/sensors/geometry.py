@@ -92,12 +92,8 @@ class Geometry:
         self.ent_texture_kind[i] = KINDS[texture.kind]
 
     def refresh_poses(self) -> None:
-        pose = self.pose
-        for i, body in enumerate(self.bodies):
-            x, y = body.position
-            pose[i, 0] = x
-            pose[i, 1] = y
-            pose[i, 2] = body.angle
+        if self.bodies:  # one assignment: numpy's per-element writes cost more than the reads
+            self.pose[:] = [(*body.position, body.angle) for body in self.bodies]
 
     def update_visibility(self, entity: Entity) -> None:
         self.ent_visible[entity.index] = entity.visible
