@@ -109,10 +109,13 @@ def test_valid_action_forms_are_accepted(discrete_env, continuous_env):
 def test_unknown_and_missing_agents(discrete_env):
     before = state(discrete_env)
     actions = {a: 0 for a in discrete_env.agents}
-    with pytest.raises(ValueError, match="'agent_9'.*not a live agent"):
-        discrete_env.step({**actions, "agent_9": 0})
+    with pytest.raises(ValueError, match=r"action 2 given for 'agent_9'.*not a live agent") as info:
+        discrete_env.step({**actions, "agent_9": 2})
+    assert "Discrete(3)" in str(info.value)
     del actions["agent_3"]
-    with pytest.raises(ValueError, match="no action given for live agent 'agent_3'"):
+    with pytest.raises(
+        ValueError, match=r"no action given for live agent 'agent_3'.*Discrete\(3\)"
+    ):
         discrete_env.step(actions)
     with pytest.raises(TypeError, match="dict"):
         discrete_env.step([0, 0, 0, 0])
@@ -146,3 +149,32 @@ def test_unknown_scenarios_and_render_modes():
         flatland_ma.env("nothing")
     with pytest.raises(ValueError, match="render_mode"):
         flatland_ma.parallel_env("fruits_poisons", render_mode="ansi")
+
+
+def test_aec_env_checks_each_action_on_its_own_turn():
+    aec = flatland_ma.env("fruits_poisons_multi")
+    aec.reset(seed=0)
+    parallel = aec.unwrapped
+    for _ in range(3):  # a few whole rounds
+        for _ in parallel.agents:
+            aec.step(0)
+    before = state(parallel)
+    aec.step(1)  # agent_0 acts; the round is not over
+    with pytest.raises(InvalidActionError, match="out of range") as info:
+        aec.step(7)  # agent_1's turn
+    assert "agent_1" in str(info.value) and "7" in str(info.value)
+    assert "Discrete(3)" in str(info.value)
+    assert aec.agent_selection == "agent_1" and state(parallel) == before
+    for action in (2, 0, 1):  # the round goes on from where it was
+        aec.step(action)
+    assert parallel.num_steps == before[1] + 1
+    assert aec.action_names() == ("forward", "rotate_left", "rotate_right")
+    assert aec.action_index("rotate_right") == 2
+
+
+def test_aec_to_parallel_gives_back_the_native_env():
+    from pettingzoo.utils.conversions import aec_to_parallel
+
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+
+    assert type(aec_to_parallel(flatland_ma.env("fruits_poisons_multi"))) is FlatlandParallelEnv

@@ -1,13 +1,39 @@
-"""The PettingZoo AEC environment, derived from the parallel one (no logic of its own)."""
+"""The PettingZoo AEC environment, derived from the parallel one.
+
+PettingZoo's ``parallel_to_aec_wrapper`` gives the turn-taking; the only addition is that
+each agent's action is checked on its own turn, so a bad action fails at once, names its
+agent, value and space, and leaves the round as it was (the agent can act again).
+``aec_to_parallel`` still unwraps it to the parallel env.
+"""
 
 from __future__ import annotations
 
 from pettingzoo import AECEnv
-from pettingzoo.utils.conversions import parallel_to_aec
+from pettingzoo.utils.conversions import parallel_to_aec_wrapper
+from pettingzoo.utils.wrappers import OrderEnforcingWrapper
 
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 
 
+class FlatlandAECEnv(parallel_to_aec_wrapper):
+    """``parallel_to_aec_wrapper`` that checks the acting agent's action before storing it."""
+
+    def step(self, action) -> None:
+        agent = self.agent_selection
+        if not (self.terminations[agent] or self.truncations[agent]):
+            self.env.check_action(agent, action)
+        super().step(action)
+
+    def action_names(self, agent: str = "agent_0") -> tuple[str, ...]:
+        """What each discrete action or each continuous entry means, in order."""
+        return self.env.action_names(agent)
+
+    def action_index(self, name: str, agent: str = "agent_0") -> int:
+        """The discrete action (or continuous entry) called ``name``, e.g. ``"grasp"``."""
+        return self.env.action_index(name, agent)
+
+
 def env(scenario="fruits_poisons", render_mode: str | None = None, **overrides) -> AECEnv:
     """AEC view of ``FlatlandParallelEnv``: agents act in turn, physics runs once all have."""
-    return parallel_to_aec(FlatlandParallelEnv(scenario, render_mode=render_mode, **overrides))
+    parallel = FlatlandParallelEnv(scenario, render_mode=render_mode, **overrides)
+    return OrderEnforcingWrapper(FlatlandAECEnv(parallel))

@@ -135,16 +135,38 @@ class FlatlandParallelEnv(ParallelEnv):
         for name in actions:
             if name not in self._index or self._index[name] not in self._live:
                 raise ValueError(
-                    f"action given for {name!r}, which is not a live agent; "
-                    f"live agents: {self.agents}"
+                    f"action {actions[name]!r} given for {name!r}, which is not a live agent; "
+                    f"expected one action for each live agent {self.agents}, "
+                    f"in {self._spaces_text(self.agents)}"
                 )
         checked = []
         for i in self._live:
             name = self.possible_agents[i]
             if name not in actions:
-                raise ValueError(f"no action given for live agent {name!r}")
+                raise ValueError(
+                    f"no action given for live agent {name!r}; "
+                    f"expected an element of {self.action_spaces[name]}"
+                )
             checked.append(self._actuators[i].check(name, actions[name]))
         return checked
+
+    def check_action(self, agent: str, action) -> object:
+        """``action`` as the step loop will use it, if it belongs to the action space of
+        ``agent`` (a live agent); otherwise an error naming the agent, the value and the
+        space. Changes nothing."""
+        if agent not in self._index or self._index[agent] not in self._live:
+            raise ValueError(
+                f"action {action!r} given for {agent!r}, which is not a live agent; "
+                f"live agents: {self.agents}"
+            )
+        return self._actuators[self._index[agent]].check(agent, action)
+
+    def _spaces_text(self, agents: list[str]) -> str:
+        """The action space shared by ``agents``, or each one's if they differ."""
+        spaces = {str(self.action_spaces[a]) for a in agents}
+        if len(spaces) == 1:
+            return spaces.pop()
+        return ", ".join(f"{a}: {self.action_spaces[a]}" for a in agents)
 
     def _advance(self, checked: list) -> tuple[list[int], list[float], list[bool], bool]:
         """Apply checked actions of the live agents, simulate one step, observe.
