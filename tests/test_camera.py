@@ -110,3 +110,22 @@ def test_falloff_none_keeps_full_colour():
     place(env, 0, 150.0, 150.0, 0.0)
     obs = observe(env)["agent_0"]
     np.testing.assert_allclose(obs[:, :3], np.tile(env.spec.arena.wall.color, (64, 1)), rtol=1e-6)
+
+
+MULTI_AGENT = [s for s in flatland_ma.list_scenarios() if flatland_ma.load_scenario(s).n_agents > 1]
+
+
+@pytest.mark.parametrize("scenario", MULTI_AGENT)
+def test_shipped_agents_wear_colours_nothing_else_in_their_world_has(scenario):
+    # Otherwise another agent is, in a 1-D image, indistinguishable from an obstacle.
+    env = flatland_ma.parallel_env(scenario)
+    env.reset(seed=0)
+    agents = {id(body) for body in env.episode.bodies}
+    agents |= {id(part) for body in env.episode.bodies for part in body.parts}
+    world_colours = set()
+    for entity in env.episode.world.entities:
+        if id(entity) not in agents:
+            colours = [entity.color] if entity.texture is None else entity.texture.colors
+            world_colours |= {tuple(np.round(c, 4)) for c in colours}
+    for i, body in enumerate(env.episode.bodies):
+        assert tuple(np.round(body.color, 4)) not in world_colours, (scenario, i, body.color)
