@@ -160,18 +160,21 @@ def test_culling_agrees_with_brute_force_on_random_scenes():
         distance, hit, _ = cast(angles, eye=eye, polygons=polys, circles=circles, view_range=250.0)
         # Brute force: the nearest hit over every shape, no culling.
         for i, a in enumerate(angles):
-            best, who = 250.0, -1
+            alone = {}  # shape index -> distance at which this ray hits it on its own
             for e, p in enumerate(polys):
                 d, h, _ = cast([a], eye=eye, polygons=[p], view_range=250.0, half_fov=math.pi)
-                if h[0] >= 0 and d[0] < best:
-                    best, who = d[0], e
+                if h[0] >= 0:
+                    alone[e] = d[0]
             for k, c in enumerate(circles):
                 d, h, _ = cast([a], eye=eye, circles=[c], view_range=250.0, half_fov=math.pi)
-                if h[0] >= 0 and d[0] < best:
-                    best, who = d[0], len(polys) + k
+                if h[0] >= 0:
+                    alone[len(polys) + k] = d[0]
+            best = min(alone.values(), default=250.0)
             assert distance[i] == pytest.approx(best, abs=1e-9)
-            if who >= 0:
-                assert hit[i] == who or distance[i] == pytest.approx(best)
+            # The nearest shape is the one reported; shapes tied with it (overlapping
+            # boundaries) are equally right.
+            nearest = {who for who, d in alone.items() if abs(d - best) <= 1e-9}
+            assert hit[i] in (nearest or {-1}), (i, hit[i], nearest)
 
 
 @pytest.mark.parametrize("cells", [1, 7, 64, 1024])
