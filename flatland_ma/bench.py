@@ -90,14 +90,18 @@ WITH_PARTS = "tug_of_war"
 """Four agents with heads, arms and graspers: compare with fruits_poisons_multi's plain bodies."""
 
 
+BENCHED = (
+    (bench_gym, "fruits_poisons"),
+    (bench_parallel, "fruits_poisons_multi"),
+    (bench_gym, LARGEST),
+    (bench_parallel, "forage_rooms_multi"),
+    (bench_parallel, WITH_PARTS),
+)
+"""What ``flatland-ma bench`` measures, in order."""
+
+
 def run(steps: int = 20_000) -> list[BenchResult]:
-    return [
-        bench_gym("fruits_poisons", steps),
-        bench_parallel("fruits_poisons_multi", steps),
-        bench_gym(LARGEST, steps),
-        bench_parallel("forage_rooms_multi", steps),
-        bench_parallel(WITH_PARTS, steps),
-    ]
+    return [bench(scenario, steps) for bench, scenario in BENCHED]
 
 
 def format_table(results: list[BenchResult]) -> str:
@@ -116,4 +120,25 @@ def format_table(results: list[BenchResult]) -> str:
         "on the same world. Rates include resets (a new layout each episode where the "
         "scenario asks for one)."
     )
+    lines += [f"{text}: {ratio:.2f}x slower" for text, ratio in comparisons(results)]
     return "\n".join(lines)
+
+
+COMPARISONS = (
+    (f"gym {gym_id('fruits_poisons')}", f"gym {gym_id(LARGEST)}", "env", "largest layout"),
+    ("parallel fruits_poisons_multi", f"parallel {WITH_PARTS}", "agent", "bodies with parts"),
+)
+"""(reference, compared, rate, what): the costs the library keeps within 2x."""
+
+
+def comparisons(results: list[BenchResult]) -> list[tuple[str, float]]:
+    """For each pair in ``COMPARISONS`` that was measured: its text and how many times
+    slower the compared environment is than the reference (env or agent steps/s)."""
+    by_label = {r.label: r for r in results}
+    out = []
+    for reference, compared, rate, what in COMPARISONS:
+        if reference in by_label and compared in by_label:
+            a, b = by_label[reference], by_label[compared]
+            ratio = getattr(a, f"{rate}_steps_per_s") / getattr(b, f"{rate}_steps_per_s")
+            out.append((f"{what} ({compared} vs {reference}, {rate} steps/s)", ratio))
+    return out

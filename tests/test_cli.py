@@ -3,8 +3,17 @@
 import subprocess
 import sys
 
+import pytest
+
 import flatland_ma
-from flatland_ma.bench import BenchResult, bench_gym, bench_parallel, format_table
+from flatland_ma.bench import (
+    BENCHED,
+    BenchResult,
+    bench_gym,
+    bench_parallel,
+    comparisons,
+    format_table,
+)
 from flatland_ma.cli import main
 
 
@@ -42,3 +51,20 @@ def test_bench_measures_env_and_bare_physics():
     table = format_table(results)
     assert "bare space.step/s" in table and "fruits_poisons_multi" in table
     assert BenchResult("x", 4, 10.0, 100.0).agent_steps_per_s == 40.0
+
+
+def test_bench_compares_large_worlds_and_bodies_with_parts_with_their_references():
+    fake = [
+        BenchResult("gym flatland_ma/FruitsPoisons-v0", 1, 20_000.0, 1e6),
+        BenchResult("parallel fruits_poisons_multi", 4, 10_000.0, 1e6),
+        BenchResult("gym flatland_ma/MazeLarge-v0", 1, 16_000.0, 1e6),
+        BenchResult("parallel tug_of_war", 4, 5_000.0, 1e6),
+    ]
+    ratios = dict(comparisons(fake))
+    assert len(ratios) == 2
+    (large,) = [r for text, r in ratios.items() if "largest layout" in text]
+    (parts,) = [r for text, r in ratios.items() if "bodies with parts" in text]
+    assert large == pytest.approx(1.25) and parts == pytest.approx(2.0)
+    assert "1.25x slower" in format_table(fake) and "2.00x slower" in format_table(fake)
+    # The full bench measures every environment these comparisons need.
+    assert {"maze_large", "tug_of_war"} <= {scenario for _, scenario in BENCHED}
