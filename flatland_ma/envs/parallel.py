@@ -3,7 +3,8 @@
 Agents are ``agent_0 ... agent_{n-1}``. Each observes its own first-person camera: a
 float32 array of shape ``(rays, 4)`` (RGB times intensity, and depth), and acts through
 ``Discrete(3)`` (forward, rotate left, rotate right) or ``Box(-1, 1, (3,))`` (longitudinal,
-lateral, angular), as the scenario says. Rewards come from the scenario's task; reaching
+lateral, angular), as the scenario says; a head and arms add their own actions
+(``action_names`` lists them). Rewards come from the scenario's task; reaching
 ``episode.max_steps`` truncates every agent. ``infos[agent]`` holds the agent's episode
 counters: ``score`` and one count per item group (e.g. ``fruits``, ``poisons``).
 
