@@ -83,7 +83,7 @@ def _validate(args) -> int:
         else:
             print(
                 f"{scenario_path(name)}: ok ({spec.n_agents} agent(s), {len(spec.obstacles)} "
-                f"obstacles, {sum(i.count for i in spec.items)} items)"
+                f"obstacles, {sum(i.n_items for i in spec.items)} items)"
             )
     return 1 if failures else 0
 

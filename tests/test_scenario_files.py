@@ -1,16 +1,27 @@
 """Scenario files: every shipped file validates; every fault is reported with the file,
-the line and the key path; no malformed file reaches pymunk or numpy."""
+the line and the key path (malformed files are fuzzed in ``test_scenario_fuzz.py``)."""
 
 import textwrap
 
+import numpy as np
 import pytest
-import yaml
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
 import flatland_ma
+from flatland_ma.scenario import builder, capacity
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import load_scenario, scenario_dir
+
+KEY_DOOR = """\
+arena: {size: [400, 250]}
+walls:
+  - {start: [250, 0], end: [250, 250], thickness: 8}
+doors:
+  - {start: [250, 105], end: [250, 145], state: locked, key: key}
+agent:
+  spawn: {area: [20, 20, 230, 230]}
+"""
+"""The west part of a split arena, where agents start; a locked door to the east part."""
+SWITCH_DOOR = KEY_DOOR.replace("state: locked, key: key", "switch: plate")
 
 
 def write(tmp_path, text, name="s.yaml"):
@@ -238,6 +249,77 @@ def test_unknown_key_names_file_line_path_and_suggests(tmp_path):
             ("items", 0, "texture", "kind"),
             "'uniform'",
         ),
+        # keys and switches behind the doors they open; zones nobody can reach
+        (
+            KEY_DOOR + "items:\n  - {name: key, color: gold, key: true, positions: [[340, 60]]}\n",
+            9,
+            ("items", 0, "positions", 0),
+            "agents cannot reach this place (behind doors[0]",
+        ),
+        (
+            KEY_DOOR
+            + "items:\n  - {name: key, color: gold, key: true, spawn: [20, 20, 380, 230]}\n",
+            9,
+            ("items", 0, "spawn"),
+            "may be drawn where agents can only go through doors[0], which it opens",
+        ),
+        (
+            SWITCH_DOOR + "zones:\n  - {name: plate, rect: [300, 20, 340, 60]}\n",
+            9,
+            ("zones", 0, "rect"),
+            "agents cannot reach this zone (behind doors[0]",
+        ),
+        (
+            SWITCH_DOOR + "zones:\n  - {name: plate, size: [40, 40], area: [100, 20, 390, 230]}\n",
+            9,
+            ("zones", 0, "area"),
+            "which it opens",
+        ),
+        (
+            "walls:\n  - {start: [150, 0], end: [150, 300]}\nagent:\n  spawn: {area: [0, 0, 140, 300]}\nzones:\n  - {rect: [200, 100, 240, 140], reward: 1}\n",
+            6,
+            ("zones", 0, "rect"),
+            "agents cannot reach this zone",
+        ),
+        # room to place things, reported at the key that asks for too much
+        (
+            "n_agents: 4\nteams:\n  - {name: a, size: 2}\n  - {name: b, size: 2, spawn: {area: [100, 100, 112, 112]}}\n",
+            4,
+            ("teams", 1, "spawn", "area"),
+            "no room to place every agent",
+        ),
+        ("agent:\n  radius: 1000\n", 2, ("agent", "radius"), "do not fit in the 300 x 300 arena"),
+        (
+            "items:\n  - {name: a, color: red, radius: 1000}\n",
+            2,
+            ("items", 0, "radius"),
+            "do not fit in the 300 x 300 arena",
+        ),
+        (
+            "obstacles:\n  - {shape: box, position: [150, 150], size: [200, 200]}\nitems:\n  - {name: a, color: red, radius: 60}\n",
+            4,
+            ("items", 0, "radius"),
+            "no room to place every item",
+        ),
+        (
+            "extends: fruits_poisons\nitems:\n  - {name: a, color: red, radius: 10, count: 100}\n",
+            3,
+            ("items", 0, "count"),
+            "no room to place every item",
+        ),
+        # fixed items apart, openings on their sides
+        (
+            "items:\n  - {name: a, color: red, positions: [[100, 100]]}\n  - {name: b, color: red, positions: [[200, 200], [105, 100]]}\n",
+            3,
+            ("items", 1, "positions", 1),
+            "overlaps the item at items[0].positions[0]",
+        ),
+        (
+            "rooms:\n  - {rect: [50, 50, 150, 150], openings: [{side: north, offset: 90, width: 40}]}\n",
+            2,
+            ("rooms", 0, "openings", 0, "offset"),
+            "the gap from 70 to 110 along the north side does not fit in the side, 100 long",
+        ),
     ],
 )
 def test_faults_are_located(tmp_path, text, line, path, words):
@@ -301,93 +383,111 @@ def test_validate_command_reports_and_fails(tmp_path, capsys):
     assert f"{bad}:1: n_agents:" in out and "ok (1 agent(s)" in out
 
 
-BASE = yaml.safe_load((scenario_dir() / "fruits_poisons.yaml").read_text())
-SCALARS = st.one_of(
-    st.none(),
-    st.booleans(),
-    st.integers(-(10**6), 10**6),
-    st.floats(allow_nan=True, allow_infinity=True),
-    st.text(max_size=8),
-)
-VALUES = st.recursive(
-    SCALARS,
-    lambda inner: (
-        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=6), inner, max_size=4)
-    ),
-    max_leaves=12,
-)
-KEYS = st.sampled_from(
-    [
-        "n_agents",
-        "episode",
-        "physics",
-        "arena",
-        "obstacles",
-        "items",
-        "agent",
-        "extends",
-        "size",
-        "camera",
-        "rays",
-        "radius",
-        "shape",
-        "position",
-        "vertices",
-        "color",
-        "count",
-        "bogus",
-    ]
-)
+def test_doors_open_in_the_order_their_keys_can_be_reached(tmp_path):
+    """Three rooms in a row behind two locked doors; each key must lie before its door."""
+    arena = """\
+arena: {size: [600, 250]}
+walls:
+  - {start: [200, 0], end: [200, 250]}
+  - {start: [400, 0], end: [400, 250]}
+doors:
+  - {start: [200, 105], end: [200, 145], state: locked, key: first}
+  - {start: [400, 105], end: [400, 145], state: locked, key: second}
+agent:
+  spawn: {area: [20, 20, 180, 230]}
+items:
+  - {name: first, color: gold, key: true, positions: [[FIRST, 60]]}
+  - {name: second, color: gold, key: true, positions: [[SECOND, 60]]}
+  - {name: goal, color: lime, positions: [[500, 125]]}
+"""
+
+    def keys_at(first, second):
+        return arena.replace("FIRST", str(first)).replace("SECOND", str(second))
+
+    assert load_scenario(write(tmp_path, keys_at(100, 300))).doors
+    (p,) = problems(write(tmp_path, keys_at(300, 100)))
+    assert p.path == ("items", 0, "positions", 0) and p.line == 11
+    assert p.message == (
+        "agents cannot reach this place (behind doors[0]: it never opens, nothing that "
+        "opens it is reachable)"
+    )
 
 
-def _mutate(data, path, value):
-    node = data
-    for key in path[:-1]:
-        if isinstance(node, dict):
-            node = node.setdefault(key, {})
-        elif isinstance(node, list) and node:
-            node = node[hash(key) % len(node)]
-        if not isinstance(node, (dict, list)):
-            return data
-    if isinstance(node, dict):
-        node[path[-1]] = value
-    elif isinstance(node, list) and node:
-        node[hash(path[-1]) % len(node)] = value
-    return data
+def test_an_obstacle_overlapping_a_wall_names_the_wall_too(tmp_path):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("fruits_poisons", walls=[{"start": [60, 0], "end": [60, 300]}])
+    obstacle, wall = info.value.problems
+    assert obstacle.path == ("obstacles", 0) and "overlaps a wall (walls[0])" in obstacle.message
+    assert wall.source == "<overrides>" and wall.path == ("walls", 0)
+    assert wall.message == "overlaps obstacles[0]"
 
 
-@settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
-@given(path=st.lists(KEYS, min_size=1, max_size=4), value=VALUES)
-def test_fuzzed_files_fail_only_with_scenario_errors(tmp_path, path, value):
-    import copy
-
-    data = _mutate(copy.deepcopy(BASE), path, value)
-    file = tmp_path / "fuzz.yaml"
-    file.write_text(yaml.safe_dump(data))
-    try:
-        env = flatland_ma.parallel_env(file)
-    except ScenarioError as err:
-        assert err.problems and all(p.source for p in err.problems)
-        return
-    env.reset(seed=0)
-    env.step({a: env.action_space(a).sample() for a in env.agents})
+def test_a_union_field_gives_one_message(tmp_path):
+    (p,) = problems(write(tmp_path, "items:\n  - {name: a, color: red, respawn: 0}\n"))
+    assert p.path == ("items", 0, "respawn") and p.line == 2
+    assert (
+        p.message == "Input should be 'immediate' or 'never', or greater than or equal to 1; got 0"
+    )
 
 
-@settings(
-    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
-)
-@given(cut=st.integers(0, 2000), junk=st.text(max_size=12))
-def test_mangled_text_fails_only_with_scenario_errors(tmp_path, cut, junk):
-    text = (scenario_dir() / "fruits_poisons.yaml").read_text()
-    cut %= len(text)
-    file = tmp_path / "mangled.yaml"
-    file.write_text(text[:cut] + junk + text[cut:])
-    try:
-        load_scenario(file)
-    except ScenarioError as err:
-        assert err.problems
+def test_an_unknown_key_in_an_optional_section_lists_that_sections_keys(tmp_path):
+    (p,) = problems(write(tmp_path, "agent:\n  head:\n    radios: 3\n"))
+    assert p.path == ("agent", "head", "radios") and p.line == 3
+    assert "did you mean 'radius'" in p.message and "max_angle" in p.message
+
+
+def test_numpy_numbers_are_accepted_as_overrides():
+    spec = load_scenario("fruits_poisons", n_agents=np.int64(2), agent={"radius": np.float32(8.0)})
+    assert spec.n_agents == 2 and type(spec.n_agents) is int and spec.agent.radius == 8.0
+    spec = load_scenario("fruits_poisons", arena={"size": np.array([320.0, 300.0])})
+    assert spec.arena.size == (320.0, 300.0)
+
+
+def test_the_validate_summary_counts_items_at_fixed_places(tmp_path, capsys):
+    from flatland_ma.cli import main
+
+    path = write(
+        tmp_path, "items:\n  - {name: a, color: red, positions: [[50, 50], [90, 50], [130, 50]]}\n"
+    )
+    assert main(["validate", str(path)]) == 0
+    assert "3 items)" in capsys.readouterr().out
+
+
+def test_random_obstacles_cut_off_no_team_from_its_spawn_area(monkeypatch):
+    starts = []
+
+    def recording(gen, world, grid, start, rng, path):
+        starts.append((grid, start))
+        return scatter(gen, world, grid, start, rng, path)
+
+    scatter = builder.scatter_obstacles
+    monkeypatch.setattr(builder, "scatter_obstacles", recording)
+    layout = {"generators": [{"generator": "random_obstacles", "count": 3}]}
+    # Nobody starts in agent.spawn (each team has its own area): only the teams' count.
+    spec = load_scenario("tug_of_war", layout=layout, agent={"spawn": {"area": [240, 0, 260, 20]}})
+    grid, start = starts[0]
+    for team in spec.teams:
+        assert start[grid.cells_in(team.spawn.area)].all()
+    assert not (start & grid.cells_in(spec.agent.spawn.area)).any()
+
+
+def test_a_placement_that_fails_at_reset_names_the_file_and_key(tmp_path, monkeypatch):
+    """Loading checks a few seeds with room to spare; with those checks loosened, a reset
+    that finds no room raises a located ScenarioError, not a bare error from the builder."""
+    monkeypatch.setattr(capacity, "MAX_COVER", 1.0)
+    monkeypatch.setattr(builder, "CHECK_SEEDS", 1)
+    text = "extends: fruits_poisons\nitems:\n  - {name: a, color: red, radius: 10, count: 100}\n"
+    env = flatland_ma.parallel_env(write(tmp_path, text))
+    failures = []
+    for seed in range(1, 20):
+        try:
+            env.reset(seed=seed)
+        except ScenarioError as err:
+            failures += err.problems
+    assert failures, "expected some seed to run out of room"
+    p = failures[0]
+    assert p.source == str(tmp_path / "s.yaml") and p.line == 3
+    assert p.path == ("items", 0, "count") and "no room to place every item" in p.message
 
 
 @pytest.mark.parametrize("document", ["README.md", "docs/scenarios.md"])

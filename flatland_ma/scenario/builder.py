@@ -18,7 +18,8 @@ from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Hands
 from flatland_ma.agents.parts import attach_parts
 from flatland_ma.scenario import layout as layouts
-from flatland_ma.scenario.errors import SpecError
+from flatland_ma.scenario.capacity import check_capacity, spawn_group_of, spawn_groups
+from flatland_ma.scenario.errors import SpecError, format_path
 from flatland_ma.scenario.factory import (
     make_arena_walls,
     make_door,
@@ -26,18 +27,21 @@ from flatland_ma.scenario.factory import (
     make_obstacle,
     make_walls,
 )
+from flatland_ma.scenario.reach import reachable_region
 from flatland_ma.scenario.scatter import scatter_obstacles
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.camera import Camera
 from flatland_ma.sensors.suite import Sensors
 from flatland_ma.tasks.task import Task
-from flatland_ma.world.entities import Door, Wall
+from flatland_ma.world.entities import Door, Obstacle
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.placement import PlacementError, Placer
 from flatland_ma.world.world import World
 
 LAYOUT_TRIES = 20
 """Fresh draws of a generated layout before giving up on one that cannot be built."""
+CHECK_SEEDS = 4
+"""How many seeds ``check_layout`` builds a scenario with."""
 
 
 @dataclass
@@ -59,38 +63,65 @@ class Episode:
 
 
 @dataclass
-class LayoutCache:
-    """The static layout of a scenario whose layout does not change between episodes."""
+class Ground:
+    """The static part of an episode: walls, doors and obstacles, and where agents go."""
 
-    seeds: dict = field(default_factory=dict)
+    world: World
+    doors: list[Door]
+    grid: NavGrid
+    placer: Placer
+    """Places agents can reach (through the doors they can open)."""
 
 
-def build(
-    spec: ScenarioSpec,
-    rng: np.random.Generator,
-    cameras: list[Camera],
-    cache: LayoutCache | None = None,
-) -> Episode:
+def build(spec: ScenarioSpec, rng: np.random.Generator, cameras: list[Camera]) -> Episode:
+    """A new episode; a scenario that cannot be built (e.g. no room left for an item at
+    this seed) raises ``ScenarioError`` naming its file, line and key."""
+    try:
+        return populate(spec, lay_ground(spec, rng), rng, cameras)
+    except SpecError as err:
+        raise spec.locate(err) from None
+
+
+def check_layout(spec: ScenarioSpec) -> None:
+    """Build with a few fixed seeds, checking there is room to spare for what is placed at
+    random: raise ``SpecError`` if the scenario cannot be built reliably."""
+    cameras = [Camera(spec.agent.camera) for _ in range(spec.n_agents)]
+    for seed in range(CHECK_SEEDS):
+        rng = np.random.default_rng(seed)
+        ground = lay_ground(spec, rng)
+        check_capacity(spec, ground.placer)
+        populate(spec, ground, rng, cameras)
+
+
+def lay_ground(spec: ScenarioSpec, rng: np.random.Generator) -> Ground:
+    """The ground of an episode; a layout generated per episode is drawn again (up to
+    ``LAYOUT_TRIES`` times) while it cannot be used."""
     fixed = not spec.layout.per_episode or not spec.layout.generators
     layout_rng = np.random.default_rng(spec.layout.seed) if fixed else rng
     for attempt in range(1 if fixed else LAYOUT_TRIES):
         try:
-            world, doors, grid = _static_world(spec, layout_rng)
-            break
+            return _ground(spec, layout_rng)
         except SpecError:
             if fixed or attempt == LAYOUT_TRIES - 1:
                 raise
-    start = np.zeros_like(grid.blocked)
-    for i in range(spec.n_agents):
-        start |= grid.cells_in(spec.spawn_of(i).area)
-    reachable = grid.reachable(start)
-    placer = Placer(world, grid, reachable)
+    raise AssertionError("unreachable")  # pragma: no cover
 
+
+def populate(
+    spec: ScenarioSpec, ground: Ground, rng: np.random.Generator, cameras: list[Camera]
+) -> Episode:
+    """Place the agents, then the items, on the ground; the sensors and the task."""
+    world, placer = ground.world, ground.placer
     bodies, eyes, hands = [], [], []
-    reach = footprint(spec.agent)
+    reach = spec.agent.footprint()
+    groups = spawn_groups(spec)
+    placed = {g.team: 0 for g in groups}
     for i in range(spec.n_agents):
         spawn, team = spec.spawn_of(i), spec.team_of(i)
-        x, y = _place(placer, rng, reach, spawn.area, ("n_agents",), "agent")
+        group = spawn_group_of(spec, groups, i)
+        k = placed[group.team]
+        placed[group.team] += 1
+        x, y = _place(placer, rng, reach, spawn.area, group.fault_path(k), "agent")
         angle = (
             float(rng.uniform(-math.pi, math.pi))
             if spawn.heading is None
@@ -112,37 +143,25 @@ def build(
 
     for g, item_spec in enumerate(spec.items):
         if item_spec.positions is not None:
-            for k, (x, y) in enumerate(item_spec.positions):
-                if not reachable[grid.cell_of(x, y)]:
-                    raise SpecError(("items", g, "positions", k), "agents cannot reach this place")
+            for x, y in item_spec.positions:
                 world.add(make_item(item_spec, g, x, y, home=(x, y)))
             continue
-        for _ in range(item_spec.count):
-            path = ("items", g, "spawn" if item_spec.spawn is not None else "count")
+        for k in range(item_spec.count):
+            if item_spec.spawn is not None:
+                path = ("items", g, "spawn")
+            else:
+                path = ("items", g, "radius" if k == 0 else "count")
             x, y = _place(placer, rng, item_spec.radius, item_spec.spawn, path, "item")
             world.add(make_item(item_spec, g, x, y))
 
     sensors = Sensors(world, eyes, cameras)
     grasps = Hands(world.space, hands)
-    task = Task(spec, world, sensors.geometry, bodies, doors, placer, rng, grasps)
-    return Episode(world, bodies, sensors, task, grid, placer, grasps, doors, eyes)
+    task = Task(spec, world, sensors.geometry, bodies, ground.doors, placer, rng, grasps)
+    return Episode(world, bodies, sensors, task, ground.grid, placer, grasps, ground.doors, eyes)
 
 
-def footprint(agent) -> float:
-    """Radius of the disc an agent with its parts needs to start in."""
-    reach = agent.radius
-    if agent.head is not None:
-        reach = max(reach, agent.head.offset + agent.head.radius)
-    for arm in agent.arms:
-        tip = sum(s.length for s in arm.segments) + (arm.grasper.radius if arm.grasper else 0.0)
-        reach = max(reach, agent.radius + tip)
-    return reach
-
-
-def _static_world(
-    spec: ScenarioSpec, rng: np.random.Generator
-) -> tuple[World, list[Door], NavGrid]:
-    """The walls, doors and obstacles of one layout, with the grid of where agents fit."""
+def _ground(spec: ScenarioSpec, rng: np.random.Generator) -> Ground:
+    """The walls, doors and obstacles of one layout, and where agents fit and can go."""
     world = World(spec.physics, spec.arena.size)
     world.add(make_arena_walls(spec.arena))
     parts = [layouts.explicit_layout(spec)]
@@ -151,45 +170,55 @@ def _static_world(
             parts.append(layouts.grid_rooms(gen, spec, rng, index))
         elif gen.generator == "maze":
             parts.append(layouts.maze(gen, spec, rng, index))
-    for wall in make_walls([p for part in parts for p in part.walls], world.space.static_body):
+    walls, owners = make_walls([p for part in parts for p in part.walls], world.space.static_body)
+    for wall in walls:
         world.add(wall)
     doors = [world.add(make_door(piece, world.space)) for part in parts for piece in part.doors]
+    owners.update((shape, door.path) for door in doors for shape in door.shapes)
     for i, obstacle in enumerate(spec.obstacles):
         entity = make_obstacle(obstacle, world.space)
-        for shape in entity.shapes:
-            shape.cache_bb()
-            for hit in world.space.shape_query(shape):
-                other = world.entity_of_shape[hit.shape]
-                what = (
-                    "a wall"
-                    if isinstance(other, Wall)
-                    else "a door"
-                    if isinstance(other, Door)
-                    else "another obstacle"
-                )
-                raise SpecError(("obstacles", i), f"overlaps {what}")
+        _check_clear(world, entity, ("obstacles", i), owners)
         world.add(entity)
+        owners.update((shape, ("obstacles", i)) for shape in entity.shapes)
 
     grid = NavGrid(spec.arena.size, spec.agent.radius)
     for entity in world.entities:
         if entity.blocks_paths:
             for shape in entity.shapes:
                 grid.block_shape(shape)
-    start = grid.cells_in(spec.agent.spawn.area)
+    groups = spawn_groups(spec)
+    start = np.zeros_like(grid.blocked)
+    for group in groups:
+        start |= grid.cells_in(group.spawn.area)
     for index, gen in enumerate(spec.layout.generators):
         if gen.generator == "random_obstacles":
             path = ("layout", "generators", index)
             grid = scatter_obstacles(gen, world, grid, start, rng, path)
-    if not (start & ~grid.blocked).any():
-        where = ("agent", "spawn", "area") if spec.agent.spawn.area else ("arena", "size")
-        raise SpecError(where, "no free place where agents could start")
-    return world, doors, grid
+    for group in groups:
+        if not (grid.cells_in(group.spawn.area) & ~grid.blocked).any():
+            where = group.area_path or ("arena", "size")
+            raise SpecError(where, "no free place where agents could start")
+    region = reachable_region(spec, grid, doors, start)
+    return Ground(world, doors, grid, Placer(world, grid, region))
 
 
-def check_layout(spec: ScenarioSpec) -> None:
-    """Build once with a fixed seed: raise ``SpecError`` if the layout is impossible."""
-    cameras = [Camera(spec.agent.camera) for _ in range(spec.n_agents)]
-    build(spec, np.random.default_rng(0), cameras)
+def _check_clear(world: World, entity, path: tuple, owners: dict) -> None:
+    """Raise at ``path`` (and at what it overlaps) if the entity overlaps anything."""
+    for shape in entity.shapes:
+        shape.cache_bb()
+        for hit in world.space.shape_query(shape):
+            other = owners.get(hit.shape, ())
+            thing = world.entity_of_shape[hit.shape]
+            what = (
+                "a door"
+                if isinstance(thing, Door)
+                else "another obstacle"
+                if isinstance(thing, Obstacle)
+                else "a wall"
+            )
+            where = f" ({format_path(other)})" if other else ""
+            also = ((other, f"overlaps {format_path(path)}"),) if other else ()
+            raise SpecError(path, f"overlaps {what}{where}", also)
 
 
 def _place(placer: Placer, rng, radius, area, path, what) -> tuple[float, float]:

@@ -6,6 +6,9 @@ from dataclasses import dataclass
 
 KeyPath = tuple  # of str keys and int list indices
 
+Marks = dict[KeyPath, tuple[str, int | None]]
+"""For each key path: the file and 1-based line where its value was written."""
+
 
 def format_path(path: KeyPath) -> str:
     """``("obstacles", 2, "radius")`` -> ``"obstacles[2].radius"``."""
@@ -43,8 +46,26 @@ class ScenarioError(ValueError):
 
 class SpecError(ValueError):
     """A fault found by a check that knows which key it concerns (e.g. a layout that
-    cannot be built); the loader turns it into a located ``Problem``."""
+    cannot be built); the loader turns it into a located ``Problem``. ``also`` names
+    other keys the fault involves (e.g. the wall an obstacle overlaps), each with its own
+    message, reported as problems of their own."""
 
-    def __init__(self, path: KeyPath, message: str):
+    def __init__(self, path: KeyPath, message: str, also: tuple = ()):
         super().__init__(message)
         self.path = path
+        self.also = tuple(also)
+
+
+def locate(marks: Marks, path: KeyPath, message: str, fallback: str) -> Problem:
+    """Locate ``path`` at its own line, or at the nearest enclosing key that has one."""
+    for n in range(len(path), -1, -1):
+        if path[:n] in marks:
+            source, line = marks[path[:n]]
+            return Problem(source, line, tuple(path), message)
+    return Problem(fallback, None, tuple(path), message)
+
+
+def located(err: SpecError, marks: Marks, fallback: str) -> ScenarioError:
+    """A ``SpecError`` (and the keys it also involves) as a located ``ScenarioError``."""
+    faults = [(err.path, str(err)), *err.also]
+    return ScenarioError([locate(marks, path, message, fallback) for path, message in faults])

@@ -65,19 +65,23 @@ def wall_corners(piece: WallPiece) -> list[tuple[float, float]]:
     return [(x0 - nx, y0 - ny), (x1 - nx, y1 - ny), (x1 + nx, y1 + ny), (x0 + nx, y0 + ny)]
 
 
-def make_walls(pieces: list[WallPiece], static_body: pymunk.Body) -> list[Wall]:
-    """One wall entity per look (colour and texture), its boxes on the space's static body."""
+def make_walls(
+    pieces: list[WallPiece], static_body: pymunk.Body
+) -> tuple[list[Wall], dict[pymunk.Shape, tuple]]:
+    """One wall entity per look (colour and texture), its boxes on the space's static body;
+    and the key path of the scenario entry each box comes from."""
     looks: dict = {}
     for piece in pieces:
         key = (piece.color, None if piece.texture is None else piece.texture.model_dump_json())
         looks.setdefault(key, []).append(piece)
-    walls = []
+    walls, paths = [], {}
     for group in looks.values():
         shapes = tuple(_wall_shape(pymunk.Poly(static_body, wall_corners(p))) for p in group)
+        paths.update((shape, p.path) for shape, p in zip(shapes, group))
         walls.append(
             Wall(body=static_body, shapes=shapes, color=group[0].color, texture=group[0].texture)
         )
-    return walls
+    return walls, paths
 
 
 def make_door(piece: DoorPiece, space: pymunk.Space) -> Door:

@@ -73,11 +73,20 @@ checks files.
   replaced whole.
 - **Overrides from Python** merge the same way and are validated the same way:
   `flatland_ma.parallel_env("maze_goal", n_agents=2, agent={"camera": {"rays": 128}})`.
-- **What is checked before anything runs**: obstacles inside the arena and overlapping
-  nothing; spawn areas and zones inside the arena; a free place for every agent and item;
-  every item reachable by the agents (walls and fixed obstacles block, doors count as
-  passable); keys and switches that exist; walls thick enough that the agents' top speed
-  cannot carry them through.
+- **What is checked before anything runs**: walls, corridors, doors, rooms, obstacles,
+  zones and spawn areas inside the arena (wall ends may reach into the boundary walls);
+  room openings inside their sides; obstacles overlapping nothing and fixed items not
+  overlapping each other; agents,
+  items and maze cells big enough for what must fit; every item and zone reachable by the
+  agents (walls and fixed obstacles block; locked and switched doors block until their key
+  or switch zone can be reached, and a key or switch zone placed at random must be
+  reachable without the door it opens); keys and switches that exist; walls thick enough
+  that the agents' top speed cannot carry them through; and room to spare for what is
+  placed at random (the scenario is built with several seeds, and discs placed at random
+  may cover at most 30% of the free floor they are drawn on).
+- **Limits**: arena sides, wall thicknesses and widths are at most 10,000; a maze has at
+  most 10,000 cells; a file may nest 32 levels deep and expand (through aliases) to at
+  most 100,000 values.
 - **Random draws** (layouts drawn per episode, spawns, respawns, randomly placed zones) all
   come from the generator seeded by `reset(seed=...)`.
 

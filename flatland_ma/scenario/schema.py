@@ -9,12 +9,18 @@ The sections live in ``spec_world`` (layout), ``spec_objects`` (obstacles and it
 
 from __future__ import annotations
 
-import math
 from typing import Annotated
 
-from pydantic import Field, model_validator
+from pydantic import Field, PrivateAttr, model_validator
 
-from flatland_ma.scenario.errors import SpecError
+from flatland_ma.scenario.bounds import check_bounds
+from flatland_ma.scenario.checks import (
+    RESERVED_NAMES,
+    check_names,
+    check_speed_against_walls,
+    check_teams,
+)
+from flatland_ma.scenario.errors import ScenarioError, SpecError, located
 from flatland_ma.scenario.spec_agent import (
     AgentSpec,
     ArmSegmentSpec,
@@ -79,10 +85,8 @@ __all__ = [
     "WallSpec",
     "WallStyle",
     "ZoneSpec",
+    "RESERVED_NAMES",
 ]
-
-RESERVED_NAMES = ("score", "keys")
-"""Keys of ``infos[agent]`` that item groups may not take."""
 
 
 class PhysicsSpec(Spec):
@@ -135,13 +139,27 @@ class ScenarioSpec(Spec):
     teams: tuple[TeamSpec, ...] = ()
     """Teams of agents, in agent order; their sizes add up to ``n_agents``."""
 
+    _origin: tuple[str, dict] = PrivateAttr(default=("<spec>", {}))
+    """The file it was read from and where each key path was written (see ``locate``)."""
+
     @model_validator(mode="after")
     def _cross_checks(self):
-        self._check_inside_arena()
-        self._check_names()
-        self._check_teams()
-        self._check_speed_against_walls()
+        check_bounds(self)
+        check_names(self)
+        check_teams(self)
+        check_speed_against_walls(self)
         return self
+
+    def __eq__(self, other) -> bool:
+        """Specs are equal when their fields are; where they were read from does not count."""
+        if not isinstance(other, ScenarioSpec):
+            return NotImplemented
+        return self.__dict__ == other.__dict__
+
+    def locate(self, err: SpecError) -> ScenarioError:
+        """A fault found while building this scenario, located in the file it came from."""
+        source, marks = self._origin
+        return located(err, marks, source)
 
     def team_of(self, agent_index: int) -> TeamSpec | None:
         """The team of an agent (teams take agents in order), or None without teams."""
@@ -156,23 +174,6 @@ class ScenarioSpec(Spec):
         team = self.team_of(agent_index)
         return team.spawn if team is not None and team.spawn is not None else self.agent.spawn
 
-    def _check_teams(self) -> None:
-        if not self.teams:
-            for i, zone in enumerate(self.zones):
-                if zone.team is not None:
-                    raise SpecError(("zones", i, "team"), f"no team {zone.team!r}: no teams")
-            return
-        names = [t.name for t in self.teams]
-        for i, name in enumerate(names):
-            if name in names[:i]:
-                raise SpecError(("teams", i, "name"), f"team name {name!r} used twice")
-        total = sum(t.size for t in self.teams)
-        if total != self.n_agents:
-            raise SpecError(("n_agents",), f"the teams have {total} agents, not {self.n_agents}")
-        for i, zone in enumerate(self.zones):
-            if zone.team is not None and zone.team not in names:
-                raise SpecError(("zones", i, "team"), f"no team {zone.team!r}; teams: {names}")
-
     def all_doors(self) -> list[tuple[tuple, DoorSpec]]:
         """Every door with its key path: standalone ones and those in room openings."""
         doors = [(("doors", i), d) for i, d in enumerate(self.doors)]
@@ -181,123 +182,3 @@ class ScenarioSpec(Spec):
                 if opening.door is not None:
                     doors.append((("rooms", r, "openings", o, "door"), opening.door))
         return doors
-
-    def _check_inside_arena(self) -> None:
-        width, height = self.arena.size
-
-        def inside(x0, y0, x1, y1) -> bool:
-            return x0 >= 0 and y0 >= 0 and x1 <= width and y1 <= height
-
-        where = f"outside the {width:g} x {height:g} arena"
-        for i, obstacle in enumerate(self.obstacles):
-            if not inside(*_obstacle_bounds(obstacle)):
-                raise SpecError(("obstacles", i, "position"), f"obstacle reaches {where}")
-        for i, zone in enumerate(self.zones):
-            if zone.rect is not None and not inside(*zone.rect):
-                raise SpecError(("zones", i, "rect"), f"zone lies {where}")
-            if zone.area is not None and not inside(*zone.area):
-                raise SpecError(("zones", i, "area"), f"zone area lies {where}")
-            if zone.size is not None:
-                x0, y0, x1, y1 = zone.area or (0, 0, width, height)
-                if zone.size[0] > x1 - x0 or zone.size[1] > y1 - y0:
-                    raise SpecError(("zones", i, "size"), "zone is larger than its area")
-        for i, room in enumerate(self.rooms):
-            if not inside(*room.rect):
-                raise SpecError(("rooms", i, "rect"), f"room lies {where}")
-        for i, item in enumerate(self.items):
-            if item.spawn is not None and not inside(*item.spawn):
-                raise SpecError(("items", i, "spawn"), f"spawn area lies {where}")
-            for k, (x, y) in enumerate(item.positions or ()):
-                if not inside(x - item.radius, y - item.radius, x + item.radius, y + item.radius):
-                    raise SpecError(("items", i, "positions", k), f"item lies {where}")
-        spawn = self.agent.spawn.area
-        if spawn is not None and not inside(*spawn):
-            raise SpecError(("agent", "spawn", "area"), f"spawn area lies {where}")
-        for i, team in enumerate(self.teams):
-            if (
-                team.spawn is not None
-                and team.spawn.area is not None
-                and not inside(*team.spawn.area)
-            ):
-                raise SpecError(("teams", i, "spawn", "area"), f"spawn area lies {where}")
-
-    def _check_names(self) -> None:
-        groups = [item.name for item in self.items]
-        for i, name in enumerate(groups):
-            if name in groups[:i]:
-                raise SpecError(("items", i, "name"), f"item name {name!r} used twice")
-            if name in RESERVED_NAMES:
-                raise SpecError(("items", i, "name"), f"{name!r} is reserved for infos")
-        zones = [z.name for z in self.zones if z.name is not None]
-        for i, zone in enumerate(self.zones):
-            if zone.name is not None and zones.count(zone.name) > 1:
-                raise SpecError(("zones", i, "name"), f"zone name {zone.name!r} used twice")
-        keys = {item.name for item in self.items if item.key}
-        keys |= {o.key for o in self.obstacles if o.key is not None}
-        door_names = []
-        for path, door in self.all_doors():
-            if door.key is not None and door.key not in keys:
-                raise SpecError(
-                    path + ("key",),
-                    f"no key item group or key object {door.key!r}; keys: {sorted(keys)}",
-                )
-            if door.switch is not None and door.switch not in zones:
-                raise SpecError(
-                    path + ("switch",), f"no zone named {door.switch!r}; zones: {zones}"
-                )
-            if door.name is not None:
-                if door.name in door_names:
-                    raise SpecError(path + ("name",), f"door name {door.name!r} used twice")
-                door_names.append(door.name)
-        for path, door in self.all_doors():
-            if path[0] == "doors" and door.start is None:
-                raise SpecError(path, "a door outside a room opening needs 'start' and 'end'")
-        tags = {o.tag for o in self.obstacles if o.tag is not None}
-        for i, zone in enumerate(self.zones):
-            if zone.accepts is not None and zone.accepts not in tags:
-                raise SpecError(
-                    ("zones", i, "accepts"),
-                    f"no object with tag {zone.accepts!r}; tags: {sorted(tags)}",
-                )
-        eaten = self.episode.end_when_eaten
-        if eaten is not None and eaten not in groups:
-            raise SpecError(
-                ("episode", "end_when_eaten"),
-                f"no item group {self.episode.end_when_eaten!r}; groups: {groups}",
-            )
-
-    def _check_speed_against_walls(self) -> None:
-        """Between two contact checks a body moves one substep's travel: a part that can
-        travel farther than the wall's half thickness plus its own could pass through."""
-        substep = self.physics.dt / self.physics.substeps
-        walls = [(("arena", "wall", "thickness"), self.arena.wall.thickness)]
-        for key in ("walls", "rooms", "corridors"):
-            for i, piece in enumerate(getattr(self, key)):
-                if piece.thickness is not None:
-                    walls.append(((key, i, "thickness"), piece.thickness))
-        for gen_index, gen in enumerate(self.layout.generators):
-            if getattr(gen, "thickness", None) is not None:
-                walls.append((("layout", "generators", gen_index, "thickness"), gen.thickness))
-        for path, thickness in walls:
-            for part, speed, half in self.agent.fastest_parts():
-                travel = speed * substep
-                if thickness / 2 + half <= travel:
-                    raise SpecError(
-                        path,
-                        f"walls {thickness:g} thick can be crossed by an agent's {part}, which "
-                        f"can move {travel:.3g} units per substep; use thicker walls, more "
-                        "physics substeps, or slower motors",
-                    )
-
-
-def _obstacle_bounds(obstacle) -> tuple[float, float, float, float]:
-    x, y = obstacle.position
-    verts = obstacle.local_vertices()
-    if verts is None:
-        r = obstacle.bounding_radius()
-        return x - r, y - r, x + r, y + r
-    a = math.radians(obstacle.angle)
-    c, s = math.cos(a), math.sin(a)
-    xs = [x + c * vx - s * vy for vx, vy in verts]
-    ys = [y + s * vx + c * vy for vx, vy in verts]
-    return min(xs), min(ys), max(xs), max(ys)

@@ -128,8 +128,11 @@ class AgentSpec(Spec):
     )
     """Agent i is drawn (and seen by other agents) in ``colors[i % len(colors)]``."""
     actions: Literal["discrete", "continuous"] = "discrete"
-    """``discrete``: Discrete(3) forward / rotate left / rotate right; ``continuous``:
-    Box(-1, 1, (3,)) longitudinal, lateral, angular."""
+    """``discrete``: Discrete(3) forward / rotate left / rotate right, and with a head or
+    arms ``stay`` plus two actions per head or joint and ``grasp`` / ``release`` per
+    grasper; ``continuous``: Box(-1, 1, (n,)) longitudinal, lateral, angular, then one
+    entry per head, joint and grasper (``n`` is 3 for a plain body). ``action_names()`` on
+    the env lists them."""
     max_speed: Positive = 200.0
     """Top linear speed, units per second."""
     max_turn_rate: Annotated[float, Field(strict=True, gt=0, le=MAX_RATE)] = 300.0
@@ -146,6 +149,17 @@ class AgentSpec(Spec):
     """Arms on the base's rim, for pushing, grasping and carrying."""
     spawn: SpawnSpec = SpawnSpec()
     """Where and how agents start."""
+
+    def footprint(self) -> float:
+        """Radius of the disc an agent with its parts needs to start in."""
+        reach = self.radius
+        if self.head is not None:
+            reach = max(reach, self.head.offset + self.head.radius)
+        for arm in self.arms:
+            tip = sum(s.length for s in arm.segments)
+            tip += arm.grasper.radius if arm.grasper is not None else 0.0
+            reach = max(reach, self.radius + tip)
+        return reach
 
     def fastest_parts(self) -> list[tuple[str, float, float]]:
         """(part, top speed in units per second, half thickness) for the base and each

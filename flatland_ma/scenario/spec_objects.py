@@ -123,8 +123,8 @@ class ItemSpec(Spec):
     """Items are discs of this radius, taken on touch."""
     spawn: Rect | None = None
     """Where they appear, at free places that agents can reach; None: the whole arena."""
-    positions: tuple[Vec2, ...] | None = None
-    """Fixed places instead of random ones (one item at each)."""
+    positions: Annotated[tuple[Vec2, ...], Field(max_length=10_000)] | None = None
+    """Fixed places instead of random ones (one item at each); items may not overlap."""
     respawn: Literal["immediate", "never"] | int_range(1, 1_000_000) = "immediate"
     """After one is taken: ``immediate``ly at a new random place, ``never``, or after this
     many steps. Items with fixed positions reappear where they were."""

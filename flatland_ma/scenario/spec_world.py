@@ -9,6 +9,7 @@ from pydantic import Field, model_validator
 from flatland_ma.scenario.types import (
     Color,
     Flag,
+    Length,
     Name,
     NonNegative,
     Positive,
@@ -24,7 +25,7 @@ from flatland_ma.scenario.types import (
 
 
 class WallStyle(Spec):
-    thickness: Positive = 10.0
+    thickness: Length = 10.0
     """Thickness of the boundary walls (outside the playing area) and default of every wall."""
     color: Color = "gray"
     """Colour of the walls."""
@@ -33,8 +34,10 @@ class WallStyle(Spec):
 
 
 class ArenaSpec(Spec):
-    size: Size2 = (300.0, 300.0)
-    """Width and height of the playing area; its boundary walls lie outside it."""
+    size: tuple[Length, Length] = (300.0, 300.0)
+    """Width and height of the playing area; its boundary walls lie outside it. At most
+    10,000 each: every coordinate lies in the arena, and the grids laid over it (to place
+    things and check what agents can reach) grow with its area."""
     wall: WallStyle = WallStyle()
     """Style of the boundary walls; also the default of every other wall."""
     floor_color: Color = "beige"
@@ -48,7 +51,7 @@ class WallSpec(Spec):
     """One end of the centre line; the wall reaches half its thickness beyond it."""
     end: Vec2
     """The other end of the centre line."""
-    thickness: Positive | None = None
+    thickness: Length | None = None
     """None: the arena's wall thickness."""
     color: Color | None = None
     """None: the arena's wall colour."""
@@ -93,7 +96,7 @@ class DoorSpec(Spec):
     """For a door on its own: one end of its line (a hinged door's hinge)."""
     end: Vec2 | None = None
     """For a door on its own: the other end of its line."""
-    thickness: Positive | None = None
+    thickness: Length | None = None
     """None: the thickness of the wall it sits in (the arena's for a door on its own)."""
     color: Color = "brown"
     """Colour of the panel."""
@@ -118,8 +121,8 @@ class OpeningSpec(Spec):
     """Which side of the room."""
     offset: Real | None = None
     """Distance of the gap's centre from the side's west (north and south sides) or south
-    (east and west sides) end; None: the middle."""
-    width: Positive = 40.0
+    (east and west sides) end; None: the middle. The whole gap must lie on the side."""
+    width: Length = 40.0
     """Width of the gap."""
     door: DoorSpec | None = None
     """A door filling the gap; none: an open doorway."""
@@ -134,7 +137,7 @@ class RoomSpec(Spec):
     """The centre lines of the room's four walls."""
     openings: tuple[OpeningSpec, ...] = ()
     """Gaps in its sides, each optionally holding a door."""
-    thickness: Positive | None = None
+    thickness: Length | None = None
     """None: the arena's wall thickness."""
     color: Color | None = None
     """None: the arena's wall colour."""
@@ -150,9 +153,9 @@ class CorridorSpec(Spec):
     """One end of the centre line (on a room wall, typically)."""
     end: Vec2
     """The other end; start and end share x or y."""
-    width: Positive = 40.0
+    width: Length = 40.0
     """Distance between the centre lines of the corridor's two walls."""
-    thickness: Positive | None = None
+    thickness: Length | None = None
     """None: the arena's wall thickness."""
     color: Color | None = None
     """None: the arena's wall colour."""
@@ -222,11 +225,11 @@ class GridRoomsSpec(Spec):
     """Rooms along y."""
     cols: int_range(1, 30) = 2
     """Rooms along x."""
-    door_width: Positive = 40.0
+    door_width: Length = 40.0
     """Width of the opening in each shared wall."""
     doors: Literal["none", "closed", "hinged"] = "none"
     """What fills the openings: nothing, sliding doors that open on touch, hinged doors."""
-    thickness: Positive | None = None
+    thickness: Length | None = None
     """None: the arena's wall thickness."""
     color: Color | None = None
     """None: the arena's wall colour."""
@@ -240,11 +243,12 @@ class MazeSpec(Spec):
 
     generator: Literal["maze"]
     """Selects this generator."""
-    cell: Positive = 50.0
-    """Side of a maze cell (adjusted so that whole cells fill the arena)."""
+    cell: Length = 50.0
+    """Side of a maze cell (adjusted so that whole cells fill the arena). An agent must
+    fit between the walls of a cell, and a maze has at most 10,000 cells."""
     loops: UnitInterval = 0.0
     """Fraction of the inner walls left by the perfect maze that are removed."""
-    thickness: Positive | None = None
+    thickness: Length | None = None
     """None: the arena's wall thickness."""
     color: Color | None = None
     """None: the arena's wall colour."""

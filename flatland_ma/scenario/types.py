@@ -9,9 +9,15 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 
 from flatland_ma.scenario.colors import parse_color
 
+MAX_ARENA_SIDE = 10_000.0
+"""The longest side an arena may have, in world units (the largest shipped one is 800):
+it bounds every coordinate, and so the memory of the grids laid over the arena."""
+
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 Positive = Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(strict=True, ge=0, allow_inf_nan=False)]
+Length = Annotated[float, Field(strict=True, gt=0, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
+"""A positive length no longer than the longest arena side (thicknesses, widths)."""
 UnitInterval = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)]
 Flag = Annotated[bool, Field(strict=True)]
 Vec2 = tuple[Real, Real]

@@ -5,6 +5,9 @@ static shape. Reachability is a flood fill over free cells (8-connected, no sque
 between two blocked cells). The grid serves placement (spawns and items only at reachable
 places), validation (items nobody could reach) and planning (shortest paths for the
 search-based policies). Rasterising and filling are compiled (numba).
+
+Cells are half an agent's radius wide (at least one unit), and coarser when that would
+make more than ``MAX_CELLS`` cells, so a grid never takes more than a few tens of MB.
 """
 
 from __future__ import annotations
@@ -16,6 +19,8 @@ import numpy as np
 import pymunk
 
 UNREACHED = np.iinfo(np.int32).max
+MAX_CELLS = 4_000_000
+"""The most cells a grid has (2,000 x 2,000): a 10,000-unit arena gets 5-unit cells."""
 
 
 @nb.njit(cache=True)
@@ -104,7 +109,9 @@ class NavGrid:
     def __init__(self, size: tuple[float, float], clearance: float, cell: float | None = None):
         self.size = size
         self.clearance = clearance
-        self.cell = cell if cell is not None else max(clearance / 2.0, 1.0)
+        if cell is None:
+            cell = max(clearance / 2.0, 1.0, math.sqrt(size[0] * size[1] / MAX_CELLS))
+        self.cell = cell
         self.nx = max(1, math.ceil(size[0] / self.cell))
         self.ny = max(1, math.ceil(size[1] / self.cell))
         self.blocked = np.zeros((self.ny, self.nx), np.bool_)
@@ -122,19 +129,26 @@ class NavGrid:
 
     def block_shape(self, shape: pymunk.Shape, extra: float = 0.0) -> None:
         """Mark what ``shape`` (at its body's current pose) keeps agents' centres out of."""
+        self._rasterise(self.blocked, shape, extra)
+
+    def shape_mask(self, shape: pymunk.Shape, extra: float = 0.0) -> np.ndarray:
+        """The cells ``shape`` (at its body's current pose) keeps agents' centres out of."""
+        mask = np.zeros_like(self.blocked)
+        self._rasterise(mask, shape, extra)
+        return mask
+
+    def _rasterise(self, mask: np.ndarray, shape: pymunk.Shape, extra: float) -> None:
         body = shape.body
         at_origin = body.position == (0, 0) and body.angle == 0
         if isinstance(shape, pymunk.Circle):
             cx, cy = body.local_to_world(shape.offset)
-            _block_circle(
-                self.blocked, cx, cy, shape.radius, self.clearance + extra, self.cell, 0.0, 0.0
-            )
+            _block_circle(mask, cx, cy, shape.radius, self.clearance + extra, self.cell, 0.0, 0.0)
         elif isinstance(shape, pymunk.Poly):
             verts = shape.get_vertices()
             if not at_origin:
                 verts = [body.local_to_world(v) for v in verts]
             verts = np.array([tuple(v) for v in verts])
-            _block_polygon(self.blocked, verts, self.clearance + extra, self.cell, 0.0, 0.0)
+            _block_polygon(mask, verts, self.clearance + extra, self.cell, 0.0, 0.0)
         else:  # pragma: no cover - the builder makes only circles and polygons
             raise TypeError(f"cannot rasterise {type(shape).__name__}")
 
@@ -146,11 +160,14 @@ class NavGrid:
     def centre(self, i: int, j: int) -> tuple[float, float]:
         return ((j + 0.5) * self.cell, (i + 0.5) * self.cell)
 
-    def cells_in(self, rect: tuple[float, float, float, float] | None) -> np.ndarray:
-        """Boolean mask of the cells whose centre lies in ``rect`` (None: everywhere)."""
+    def cells_in(
+        self, rect: tuple[float, float, float, float] | None, grow: float = 0.0
+    ) -> np.ndarray:
+        """Boolean mask of the cells whose centre lies in ``rect`` grown by ``grow`` on
+        every side (None: everywhere)."""
         mask = np.ones((self.ny, self.nx), np.bool_)
         if rect is not None:
-            x0, y0, x1, y1 = rect
+            x0, y0, x1, y1 = rect[0] - grow, rect[1] - grow, rect[2] + grow, rect[3] + grow
             xs = (np.arange(self.nx) + 0.5) * self.cell
             ys = (np.arange(self.ny) + 0.5) * self.cell
             mask &= ((ys >= y0) & (ys <= y1))[:, None] & ((xs >= x0) & (xs <= x1))[None, :]

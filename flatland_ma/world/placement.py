@@ -25,14 +25,18 @@ class Placer:
         self.reachable = reachable
         self._cells: dict = {}
 
+    def mask(self, area) -> np.ndarray:
+        """The cells in ``area`` where a place may be drawn: free and reachable."""
+        mask = self.grid.cells_in(area) & ~self.grid.blocked
+        if self.reachable is not None:
+            mask &= self.reachable
+        return mask
+
     def candidates(self, area) -> np.ndarray:
         """Indices (i, j) of the cells in ``area`` where a place may be drawn."""
         key = None if area is None else tuple(area)
         if key not in self._cells:
-            mask = self.grid.cells_in(area) & ~self.grid.blocked
-            if self.reachable is not None:
-                mask &= self.reachable
-            self._cells[key] = np.argwhere(mask)
+            self._cells[key] = np.argwhere(self.mask(area))
         return self._cells[key]
 
     def sample(
