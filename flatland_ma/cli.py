@@ -139,7 +139,9 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
             break
         actions = {a: agents[a].act(observations[a]) for a in env.agents}
         observations, *_ = env.step(actions)
-        if gif and (t + 1) % every == 0:
+        # One frame in ``every``, and always the last (the step that ends the episode).
+        last = not env.agents or t == steps - 1
+        if gif and ((t + 1) % every == 0 or last):
             frames.append(env.render())
     if not gif:
         return save_png(env.render(), out)

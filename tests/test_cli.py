@@ -68,3 +68,22 @@ def test_bench_compares_large_worlds_and_bodies_with_parts_with_their_references
     assert "1.25x slower" in format_table(fake) and "2.00x slower" in format_table(fake)
     # The full bench measures every environment these comparisons need.
     assert {"maze_large", "tug_of_war"} <= {scenario for _, scenario in BENCHED}
+
+
+def test_a_recording_keeps_the_first_frame_and_the_one_that_ends_the_episode(tmp_path, monkeypatch):
+    import flatland_ma.render.video as video
+    from flatland_ma.policies import CarrierPolicy
+
+    kept = []
+    monkeypatch.setattr(video, "save_gif", lambda frames, out, fps: kept.extend(frames) or out)
+    # One frame in 1,000: only the first, and the last when the box goes into the goal.
+    args = ["record", "push_box", "--policy", "carrier", "--every", "1000", "--seed", "1"]
+    assert main([*args, "--out", str(tmp_path / "clip.gif")]) == 0
+    env = flatland_ma.parallel_env("push_box", render_mode="rgb_array")
+    observations, _ = env.reset(seed=1)
+    first, policy = env.render(), CarrierPolicy(env, "agent_0")
+    while env.agents:
+        _, _, _, _, infos = env.step({"agent_0": policy.act(observations["agent_0"])})
+    assert infos["agent_0"]["deliveries"] == 1
+    assert len(kept) == 2
+    assert (kept[0] == first).all() and (kept[-1] == env.render()).all()

@@ -110,6 +110,55 @@ def test_the_solver_beats_random_play_by_far(scenario):
     assert solved >= baseline + 0.8 * minimum, (solved, baseline)
 
 
+PART_TASKS = ["push_box", "fetch_object", "key_carry", "coop_carry", "tug_of_war"]
+RANDOM_EPISODES = 50
+"""Random play may succeed in at most one of these (seeds 0-49; measured: none of 200)."""
+SOLVER_EPISODES = 20
+"""The carrier must succeed in 85% of these (seeds 0-19; measured: 18 to 20 of 20)."""
+
+
+def successes(env, make_first, make_others, episodes) -> tuple[int, int]:
+    """Episodes in which anyone succeeded (delivered the object, or reached the goal), and
+    those in which the first team (or every agent, without teams) did."""
+    first = [
+        i for i in range(env.spec.n_agents)
+        if not env.spec.teams or env.spec.team_of(i).name == env.spec.teams[0].name
+    ]  # fmt: skip
+    policies = {
+        a: (make_first if i in first else make_others)(a) for i, a in enumerate(env.possible_agents)
+    }
+    anyone = mine = 0
+    for k in range(episodes):
+        observations, infos = env.reset(seed=k)
+        for policy in policies.values():
+            if hasattr(policy, "reset"):
+                policy.reset()
+        while env.agents:
+            actions = {a: policies[a].act(observations[a]) for a in env.agents}
+            observations, _, _, _, infos = env.step(actions)
+        done = [info.get("deliveries", 0) + info.get("goal", 0) > 0 for info in infos.values()]
+        anyone += any(done)
+        mine += any(done[i] for i in first)
+    return anyone, mine
+
+
+@pytest.mark.parametrize("scenario", PART_TASKS)
+def test_random_play_almost_never_solves_a_part_task_and_the_carrier_nearly_always_does(
+    scenario,
+):
+    env = flatland_ma.parallel_env(scenario)
+    assert all({"deliveries", "goal"} & set(info) for info in env.reset(seed=0)[1].values())
+
+    def random(agent):
+        return RandomPolicy(env.action_space(agent), seed=int(agent.split("_")[1]))
+
+    anyone, _ = successes(env, random, random, RANDOM_EPISODES)
+    assert anyone <= 1, f"random play succeeded in {anyone} of {RANDOM_EPISODES} episodes"
+    # In tug_of_war the carriers play the red team against random blue players.
+    _, solved = successes(env, lambda a: CarrierPolicy(env, a), random, SOLVER_EPISODES)
+    assert solved >= 0.85 * SOLVER_EPISODES, f"the carrier succeeded in {solved}"
+
+
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_each_file_says_what_it_is_and_how_random_and_scripted_play_score(scenario):
     text = (scenario_dir() / f"{scenario}.yaml").read_text()

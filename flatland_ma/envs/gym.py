@@ -27,6 +27,14 @@ class FlatlandGymEnv(gymnasium.Env):
         self.render_mode = render_mode
         self._actuator = self.parallel_env._actuators[0]
 
+    def action_names(self) -> tuple[str, ...]:
+        """What each discrete action or each continuous entry means, in order."""
+        return self.parallel_env.action_names(self.agent)
+
+    def action_index(self, name: str) -> int:
+        """The discrete action (or continuous entry) called ``name``, e.g. ``"grasp"``."""
+        return self.parallel_env.action_index(name, self.agent)
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         observations, infos = self.parallel_env.reset(seed=seed, options=options)
         self._np_random = self.parallel_env.np_random

@@ -8,12 +8,16 @@ agent without one stands behind the object and pushes it along the line to the
 destination, stepping round to get behind again when it slides off. Agents on one object
 take sides spread around it, so that several can carry together. With no job left (the
 door is open), it plays on with ``PlannerPolicy``.
+
+It drives discrete bodies (any head and arms); with several graspers it carries with the
+one whose arm points most nearly ahead.
 """
 
 from __future__ import annotations
 
 import math
 
+from flatland_ma.agents.actuators import part_controls
 from flatland_ma.policies.planner import PlannerPolicy, _descend, _mask_at, _wrap
 from flatland_ma.world.entities import Door, Obstacle
 
@@ -29,13 +33,22 @@ class CarrierPolicy:
         self.agent = agent
         self.index = env.possible_agents.index(agent)
         self.fallback = PlannerPolicy(env, agent)
+        spec = env.spec
+        if spec.agent.actions != "discrete":
+            raise ValueError(
+                "CarrierPolicy drives discrete bodies only (agent.actions: discrete); "
+                f"this scenario's agents act through {env.action_space(agent)}"
+            )
         names = env.action_names(agent)
         self.ids = {name: names.index(name) for name in names}
-        spec = env.spec
         self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
         self.radius = spec.agent.radius
-        arm = spec.agent.arms[0] if spec.agent.arms else None
+        arm, self.hand, grip = _carrying_arm(spec.agent)
         self.reach = sum(s.length for s in arm.segments) if arm else 0.0
+        # How far its longest arm reaches: kept off the object while walking round it.
+        self.span = max((sum(s.length for s in a.segments) for a in spec.agent.arms), default=0.0)
+        if grip is not None:  # that hand's actions, e.g. "arm1_grasp" with several hands
+            self.ids["grasp"], self.ids["release"] = (self.ids[name] for name in grip)
         team = spec.team_of(self.index)
         self.team = team.name if team else None
 
@@ -46,12 +59,12 @@ class CarrierPolicy:
         episode = self.env.episode
         job = self._job(episode)
         me = episode.bodies[self.index]
+        hand = me.hands[self.hand] if self.hand is not None else None
         if job is None:
-            if any(hand.closed for hand in me.hands):
+            if hand is not None and hand.closed:
                 return self.ids["release"]  # done with it: let go before moving on
             return self.fallback.act(observation)
         thing, destination = job
-        hand = me.hands[0] if me.hands else None
         if hand is not None:
             if hand.held is thing:
                 # Carrying together, turning against the others' pull gets stuck: only
@@ -128,7 +141,7 @@ class CarrierPolicy:
     def _walk(self, episode, me, thing, spot):
         """One step along the shortest path to ``spot``, going round the object."""
         grid = episode.grid.copy()
-        grid.block_shape(thing.shapes[0], extra=self.reach + 4.0)  # keep the arm off it
+        grid.block_shape(thing.shapes[0], extra=self.span + 4.0)  # keep the arms off it
         x, y = me.body.position
         here = grid.cell_of(x, y)
         grid.blocked[here] = False
@@ -145,6 +158,19 @@ class CarrierPolicy:
         if abs(angle) > (tolerance if tolerance is not None else self.turn_step * 0.6):
             return self.ids["rotate_left" if angle > 0 else "rotate_right"]
         return self.ids["forward"]
+
+
+def _carrying_arm(agent):
+    """The arm it carries with: of those with a grasper, the one pointing most nearly
+    ahead (without graspers, the first arm, to push with). Returns the arm, its hand's
+    index among the graspers and the names of that hand's grasp and release actions."""
+    _, labels = part_controls(agent)
+    graspers = [arm for arm in agent.arms if arm.grasper is not None]
+    if not graspers:
+        return (agent.arms[0] if agent.arms else None), None, None
+    h = min(range(len(graspers)), key=lambda k: abs(graspers[k].mount))
+    prefix = "" if len(labels) == 1 else f"{labels[h]}_"
+    return graspers[h], h, (f"{prefix}grasp", f"{prefix}release")
 
 
 def _objects(episode) -> list[Obstacle]:
