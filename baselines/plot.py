@@ -11,8 +11,8 @@ every seed completed. The table (Markdown, printed) gives per algorithm:
 
 - final return: per seed the mean return of the last ``--final`` fraction of its
   episodes, then the mean over seeds +- the 95% t-interval half-width;
-- steps to 80% of final: the first episode at which the smoothed mean curve reaches 80%
-  of the final return, as the mean over seeds of the steps done by then;
+- steps to 80% of final: the first episode from which the smoothed mean curve stays at or
+  above 80% of the final return, as the mean over seeds of the steps done by then;
 - wall time per seed and the share of it spent in the environment (from the JSON files).
 
 ``--references N`` also plays N episodes of the scripted greedy policy and of uniform
@@ -112,8 +112,14 @@ def summarise(label: str, runs: list[Run], window: int, final: float) -> dict:
     poisons = np.mean([r.poisons[-max(1, int(len(r.poisons) * final)) :].mean() for r in runs])
     final_mean, final_half = t_interval(finals)
     episodes, mean, _ = curve(runs, window)
-    reached = np.flatnonzero(mean >= 0.8 * final_mean) if final_mean > 0 else []
-    to_80 = np.mean([r.steps[reached[0]] for r in runs]) if len(reached) else None
+    to_80 = None
+    if final_mean > 0:
+        # From the first episode after which the mean curve never falls below 80% again
+        # (a noisy flat curve may touch 80% early by chance; it does not stay there).
+        below = np.flatnonzero(mean < 0.8 * final_mean)
+        first = below[-1] + 1 if len(below) else 0
+        if first < len(mean):
+            to_80 = np.mean([r.steps[first] for r in runs])
     walls = [r.summary["wall_seconds"] for r in runs if "wall_seconds" in r.summary]
     shares = [r.summary["env_share"] for r in runs if "env_share" in r.summary]
     return {

@@ -244,3 +244,25 @@ def test_dqn_beats_random_play(tmp_path):
     )
     test = stats.ttest_ind(dqn, random_play, equal_var=False, alternative="greater")
     assert dqn.mean() > random_play.mean() + 30 and test.pvalue < 0.01, (dqn, random_play)
+
+
+def test_steps_to_80_percent_count_from_where_the_curve_stays_up():
+    from baselines.plot import Run, summarise
+
+    def run(seed, returns):
+        returns = np.array(returns, float)
+        steps = 500 * np.arange(1, len(returns) + 1)
+        none = np.zeros_like(returns)
+        return Run(seed, steps, returns, none, none, {"agent_0": returns}, {})
+
+    # Touches 80% of the final return by chance at episode 2, stays up only from episode 6.
+    curve = [0, 90, 10, 20, 40, 85, 95, 100, 100, 100]
+    row = summarise("x", [run(0, curve), run(1, curve)], window=1, final=0.3)
+    assert row["final"][0] == pytest.approx(100.0)
+    assert row["steps_to_80"] == 6 * 500
+    # A flat noisy curve is up only at the very end, where its final return is measured...
+    flat = [0, 10, 0, 10, 0, 10, 0, 10, 0, 10]
+    assert summarise("y", [run(0, flat)], window=1, final=0.2)["steps_to_80"] == 10 * 500
+    # ... and a curve that ends below 80% of its final mean never got there.
+    falling = [0, 10, 0, 10, 0, 10, 0, 10, 10, 0]
+    assert summarise("z", [run(0, falling)], window=1, final=0.2)["steps_to_80"] is None
