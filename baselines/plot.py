@@ -161,6 +161,11 @@ def references(scenario: str, episodes: int) -> list[dict]:
     return rows
 
 
+def thousands(steps: float) -> str:
+    """Steps to three significant figures: 500 -> 0.5k, 999424 -> 999k, 2e6 -> 2M."""
+    return f"{steps / 1e6:.3g}M" if steps >= 999_500 else f"{steps / 1e3:.3g}k"
+
+
 def table(rows: list[dict], reference_rows: list[dict]) -> str:
     lines = [
         "| algorithm | seeds x steps (episodes) | final return (mean ± 95% CI) | fruits / poisons "
@@ -172,7 +177,7 @@ def table(rows: list[dict], reference_rows: list[dict]) -> str:
         wall = "{:.1f} ± {:.1f} min".format(*r["wall_minutes"]) if r["wall_minutes"] else "-"
         share = f"{r['env_share']:.1%}" if r["env_share"] is not None else "-"
         lines.append(
-            f"| {r['label']} | {r['seeds']} x {r['steps'] / 1000:g}k ({r['episodes']}) | "
+            f"| {r['label']} | {r['seeds']} x {thousands(r['steps'])} ({r['episodes']}) | "
             f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
             f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | "
             f"{to_80} | {wall} | {share} |"
@@ -220,7 +225,7 @@ def main(argv: list[str] | None = None) -> None:
     import matplotlib.pyplot as plt
 
     labels = args.labels or [d.parent.name for d in args.runs]
-    figure, axes = plt.subplots(figsize=(7, 4.2))
+    figure, axes = plt.subplots(figsize=(7, 5.2))
     rows, scenario = [], None
     for directory, label in zip(args.runs, labels):
         runs = load_runs(directory)
@@ -251,10 +256,11 @@ def main(argv: list[str] | None = None) -> None:
     axes.set_ylabel(f"return per episode\n(mean over seeds, {args.smooth}-episode average)")
     axes.set_title(args.title or f"{scenario}: mean and 95% t-interval over seeds")
     axes.grid(alpha=0.3)
-    axes.legend(fontsize=8, loc="best")
+    # Below the axes, so no curve or reference line is hidden behind it.
+    axes.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3, frameon=False)
     figure.tight_layout()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(args.out, dpi=150)
+    figure.savefig(args.out, dpi=150, bbox_inches="tight")
     print(f"wrote {args.out}\n")
     print(table(rows, reference_rows))
 

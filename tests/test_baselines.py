@@ -266,3 +266,12 @@ def test_steps_to_80_percent_count_from_where_the_curve_stays_up():
     # ... and a curve that ends below 80% of its final mean never got there.
     falling = [0, 10, 0, 10, 0, 10, 0, 10, 10, 0]
     assert summarise("z", [run(0, falling)], window=1, final=0.2)["steps_to_80"] is None
+
+
+def test_step_counts_in_the_table_keep_three_significant_figures():
+    from baselines.plot import thousands
+
+    assert [thousands(n) for n in (500, 49_000, 250_000)] == ["0.5k", "49k", "250k"]
+    # A multi-agent run that stops a little short of 1M is not rounded up to it.
+    assert thousands(999_424) == "999k"
+    assert [thousands(n) for n in (1_000_000, 2_500_000)] == ["1M", "2.5M"]
