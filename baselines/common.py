@@ -110,6 +110,41 @@ def make_env(scenario: str) -> TimedEnv:
     return TimedEnv(gymnasium.make(gym_id(scenario)))
 
 
+EVAL_SEED = 1_000_000
+"""Evaluation after training resets its own env with ``EVAL_SEED + seed``: item positions
+that training, seeded with ``seed``, never drew in that order."""
+
+
+def evaluate_policy(scenario: str, act, episodes: int, seed: int) -> dict:
+    """Play ``episodes`` full episodes of ``act(observation, info) -> action`` on a fresh env.
+
+    Returns the mean return, fruits and poisons per episode, every return, and the seconds
+    it took (kept out of the training wall time)."""
+    start = time.perf_counter()
+    env = make_env(scenario)
+    returns, fruits, poisons = [], [], []
+    observation, info = env.reset(seed=EVAL_SEED + seed)
+    for _ in range(episodes):
+        total, done = 0.0, False
+        while not done:
+            observation, reward, terminated, truncated, info = env.step(act(observation, info))
+            total += float(reward)
+            done = terminated or truncated
+        returns.append(total)
+        fruits.append(int(info["fruits"]))
+        poisons.append(int(info["poisons"]))
+        observation, info = env.reset()
+    env.close()
+    return {
+        "episodes": episodes,
+        "return": float(np.mean(returns)),
+        "fruits": float(np.mean(fruits)),
+        "poisons": float(np.mean(poisons)),
+        "returns": returns,
+        "seconds": round(time.perf_counter() - start, 2),
+    }
+
+
 def input_channels(use_depth: bool) -> int:
     """RGB, plus depth when asked: the paper's DQN input is the (64, 3) colour image."""
     return 4 if use_depth else 3
@@ -223,10 +258,17 @@ class RunLog:
         )
         self.file.flush()
 
-    def close(self, steps: int, env_seconds: float, busy_seconds: float | None = None) -> dict:
+    def close(
+        self,
+        steps: int,
+        env_seconds: float,
+        busy_seconds: float | None = None,
+        evaluation: dict | None = None,
+    ) -> dict:
         """Finish the run. ``busy_seconds`` is the time ``env_seconds`` is a share of
-        (by default the run's wall time; summed over processes for A3C)."""
-        wall = time.perf_counter() - self.start
+        (by default the run's wall time; summed over processes for A3C). ``evaluation``
+        (from ``evaluate_policy``) is stored as is; its seconds are not training time."""
+        wall = time.perf_counter() - self.start - (evaluation or {}).get("seconds", 0.0)
         busy = wall if busy_seconds is None else busy_seconds
         summary = {
             "algorithm": self.algorithm,
@@ -238,6 +280,8 @@ class RunLog:
             "torch_threads": torch.get_num_threads(),
             "cpu": _cpu_name(),
         }
+        if evaluation is not None:
+            summary["evaluation"] = evaluation
         self.file.close()
         self.path.with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
         os.replace(self.part, self.path)

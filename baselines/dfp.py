@@ -24,6 +24,7 @@ from baselines.common import (
     RunningNormalizer,
     conv_trunk,
     default_csv,
+    evaluate_policy,
     input_channels,
     keras_init,
     make_env,
@@ -78,6 +79,10 @@ class Args:
     epsilon_steps: int = 300_000
     """Steps after the warm-up over which epsilon falls linearly to its end (the paper); at
     250k steps it is still about 0.17."""
+    eval_episodes: int = 10
+    """Episodes played after training with epsilon 0 (the training policy ends at epsilon
+    0.17 after 250k steps), on env seeds training never used; their scores go into the
+    run's JSON (0: none)."""
     keras_head: bool = False
     """Use the Keras implementation's output head: ReLU on the expectation and action
     streams, no normalisation. Off: the DFP paper's linear streams, each action stream
@@ -228,12 +233,27 @@ def main(args: Args) -> dict:
         optimizer.step()
 
     total = time.perf_counter() - start
-    summary = log.close(args.total_timesteps, env.seconds)
+
+    def greedy(observation: np.ndarray, info: dict) -> int:
+        x_t = torch.from_numpy(to_input(observation, args.use_depth))[None]
+        m_t = torch.from_numpy(measure(info))[None]
+        with torch.no_grad():
+            x_in = normalize(x_t) if args.normalize_inputs else x_t
+            return int((network(x_in, m_t, goal[None])[0] @ goal).argmax())
+
+    evaluation = None
+    if args.eval_episodes:
+        evaluation = evaluate_policy(args.scenario, greedy, args.eval_episodes, args.seed)
+    summary = log.close(args.total_timesteps, env.seconds, evaluation=evaluation)
     print(
         f"done: {args.total_timesteps} steps in {total:.0f} s, "
         f"env {summary['env_share']:.1%} of it",
         flush=True,
     )
+    if evaluation:
+        print(
+            f"greedy play: mean return {evaluation['return']:g} over {args.eval_episodes} episodes"
+        )
     env.close()
     return summary
 

@@ -22,6 +22,7 @@ from baselines.common import (
     RunningNormalizer,
     conv_trunk,
     default_csv,
+    evaluate_policy,
     input_channels,
     keras_init,
     make_env,
@@ -66,6 +67,9 @@ class Args:
     """Environment steps per update (keras-rl's default ``train_interval=1``)."""
     double_q: bool = True
     """Double DQN targets (keras-rl's default ``enable_double_dqn=True``)."""
+    eval_episodes: int = 10
+    """Episodes played after training by the greedy policy (argmax Q), on env seeds training
+    never used; their scores go into the run's JSON (0: none)."""
 
 
 class QNetwork(nn.Module):
@@ -173,13 +177,26 @@ def main(args: Args) -> dict:
                 target_param.lerp_(param, args.tau)
 
     total = time.perf_counter() - start
-    summary = log.close(args.total_timesteps, env.seconds)
+
+    def greedy(observation: np.ndarray, info: dict) -> int:
+        x_t = torch.from_numpy(to_input(observation, args.use_depth))[None]
+        with torch.no_grad():
+            return int(q_network(normalize(x_t) if args.normalize_inputs else x_t)[0].argmax())
+
+    evaluation = None
+    if args.eval_episodes:
+        evaluation = evaluate_policy(args.scenario, greedy, args.eval_episodes, args.seed)
+    summary = log.close(args.total_timesteps, env.seconds, evaluation=evaluation)
     print(
         f"done: {args.total_timesteps} steps in {total:.0f} s "
         f"({1000 * total / args.total_timesteps:.2f} s per 1k steps), "
         f"env {summary['env_share']:.1%} of it",
         flush=True,
     )
+    if evaluation:
+        print(
+            f"greedy play: mean return {evaluation['return']:g} over {args.eval_episodes} episodes"
+        )
     env.close()
     return summary
 

@@ -13,7 +13,11 @@ every seed completed. The table (Markdown, printed) gives per algorithm:
   episodes, then the mean over seeds +- the 95% t-interval half-width;
 - steps to 80% of final: the first episode from which the smoothed mean curve stays at or
   above 80% of the final return, as the mean over seeds of the steps done by then;
-- wall time per seed and the share of it spent in the environment (from the JSON files).
+- greedy play after training: per seed the mean return of the episodes its final network
+  played greedily (DQN and DFP store them in their JSON), then mean over seeds +- 95%
+  t-interval; it names how many seeds have it when not all do;
+- wall time per seed (mean +- standard deviation) and the share of it spent in the
+  environment (from the JSON files).
 
 ``--references N`` also plays N episodes of the scripted greedy policy and of uniform
 random actions on the same scenario, draws them as lines and adds them to the table.
@@ -120,6 +124,7 @@ def summarise(label: str, runs: list[Run], window: int, final: float) -> dict:
         first = below[-1] + 1 if len(below) else 0
         if first < len(mean):
             to_80 = np.mean([r.steps[first] for r in runs])
+    greedy = [r.summary["evaluation"]["return"] for r in runs if "evaluation" in r.summary]
     walls = [r.summary["wall_seconds"] for r in runs if "wall_seconds" in r.summary]
     shares = [r.summary["env_share"] for r in runs if "env_share" in r.summary]
     return {
@@ -130,6 +135,7 @@ def summarise(label: str, runs: list[Run], window: int, final: float) -> dict:
         "final": (float(final_mean), float(final_half)),
         "fruits_poisons": (float(fruits), float(poisons)),
         "steps_to_80": to_80,
+        "greedy": (*map(float, t_interval(np.array(greedy))), len(greedy)) if greedy else None,
         "wall_minutes": (np.mean(walls) / 60, np.std(walls) / 60) if walls else None,
         "env_share": float(np.mean(shares)) if shares else None,
     }
@@ -169,24 +175,31 @@ def thousands(steps: float) -> str:
 def table(rows: list[dict], reference_rows: list[dict]) -> str:
     lines = [
         "| algorithm | seeds x steps (episodes) | final return (mean ± 95% CI) | fruits / poisons "
-        "per episode (final) | steps to 80% of final | wall time per seed | env share |",
-        "|---|---|---|---|---|---|---|",
+        "per episode (final) | steps to 80% of final | greedy play after training (mean ± 95% CI) "
+        "| wall time per seed (mean ± std) | env share |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         to_80 = f"{r['steps_to_80'] / 1000:.0f}k" if r["steps_to_80"] is not None else "not reached"
         wall = "{:.1f} ± {:.1f} min".format(*r["wall_minutes"]) if r["wall_minutes"] else "-"
         share = f"{r['env_share']:.1%}" if r["env_share"] is not None else "-"
+        greedy = "-"
+        if r["greedy"]:
+            mean, half, n = r["greedy"]
+            greedy = f"{mean:.1f} ± {half:.1f}" + (
+                f" ({n} of {r['seeds']} seeds)" if n < r["seeds"] else ""
+            )
         lines.append(
             f"| {r['label']} | {r['seeds']} x {thousands(r['steps'])} ({r['episodes']}) | "
             f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
             f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | "
-            f"{to_80} | {wall} | {share} |"
+            f"{to_80} | {greedy} | {wall} | {share} |"
         )
     for r in reference_rows:
         lines.append(
             f"| {r['label']} (no learning) | {r['episodes']} episodes | "
             f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
-            f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | - | - | - |"
+            f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | - | - | - | - |"
         )
     return "\n".join(lines)
 

@@ -58,6 +58,38 @@ def summary(path: Path) -> dict:
     return data
 
 
+def check_evaluation(data: dict, episodes: int) -> None:
+    """The greedy play after training, as stored in the run's JSON."""
+    evaluation = data["evaluation"]
+    assert evaluation["episodes"] == episodes == len(evaluation["returns"])
+    assert evaluation["return"] == pytest.approx(np.mean(evaluation["returns"]))
+    assert evaluation["return"] == pytest.approx(
+        10 * (evaluation["fruits"] - evaluation["poisons"])
+    )
+    assert evaluation["seconds"] > 0
+
+
+def test_evaluation_plays_whole_episodes_on_seeds_training_never_uses():
+    from baselines.common import EVAL_SEED, evaluate_policy, make_env
+
+    seen = []
+
+    def forward(observation, info):
+        seen.append(observation.copy())
+        return 0
+
+    evaluation = evaluate_policy("fruits_poisons", forward, episodes=2, seed=3)
+    assert len(seen) == 2 * 500 and evaluation["episodes"] == 2
+    assert evaluation["return"] == pytest.approx(
+        10 * (evaluation["fruits"] - evaluation["poisons"])
+    )
+    env = make_env("fruits_poisons")
+    np.testing.assert_array_equal(seen[0], env.reset(seed=EVAL_SEED + 3)[0])
+    assert not np.array_equal(seen[0], env.reset(seed=3)[0])  # training's first observation
+    # The second episode continues the evaluation env's stream rather than starting over.
+    assert not np.array_equal(seen[500], seen[0])
+
+
 def test_dqn_trains_and_logs_each_episode(tmp_path):
     out = tmp_path / "seed_3.csv"
     stdout = run_module(
@@ -68,6 +100,8 @@ def test_dqn_trains_and_logs_each_episode(tmp_path):
         "1000",
         "--learning-starts",
         "900",
+        "--eval-episodes",
+        "2",
         "--csv",
         str(out),
     )
@@ -77,6 +111,7 @@ def test_dqn_trains_and_logs_each_episode(tmp_path):
     assert [r["episode"] for r in rows] == ["0", "1"]
     assert summary(out)["steps"] == 1000
     assert "done: 1000 steps" in stdout
+    check_evaluation(summary(out), episodes=2)
 
 
 def test_dqn_with_the_depth_channel(tmp_path):
@@ -164,11 +199,14 @@ def test_dfp_trains_on_the_measurements(tmp_path):
         "1500",
         "--learning-starts",
         "1000",
+        "--eval-episodes",
+        "1",
         "--csv",
         str(out),
     )
     rows = read_log(out)
     assert [int(r["step"]) for r in rows] == [500, 1000, 1500]
+    check_evaluation(summary(out), episodes=1)
 
 
 def test_ppo_logs_every_agent_of_every_episode(tmp_path):
@@ -208,6 +246,8 @@ def test_runner_resumes_and_plot_draws_the_figure(tmp_path):
         "--",
         "--learning-starts",
         "450",
+        "--eval-episodes",
+        "1",
     ]
     run_module("baselines.run", *args)
     directory = tmp_path / "dqn" / "fruits_poisons"
@@ -224,6 +264,8 @@ def test_runner_resumes_and_plot_draws_the_figure(tmp_path):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     (row,) = [line for line in table.splitlines() if line.startswith("| dqn |")]
     assert "| 2 x 0.5k (1) |" in row
+    greedy = [json.loads((directory / f"seed_{k}.json").read_text())["evaluation"] for k in (0, 1)]
+    assert f"| {np.mean([g['return'] for g in greedy]):.1f} ± " in row
 
 
 @pytest.mark.slow
