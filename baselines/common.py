@@ -115,19 +115,25 @@ EVAL_SEED = 1_000_000
 that training, seeded with ``seed``, never drew in that order."""
 
 
-def evaluate_policy(scenario: str, act, episodes: int, seed: int) -> dict:
-    """Play ``episodes`` full episodes of ``act(observation, info) -> action`` on a fresh env.
+def evaluate_policy(scenario: str, act, episodes: int, seed: int, epsilon: float = 0.0) -> dict:
+    """Play ``episodes`` full episodes of ``act(observation, info) -> action`` on a fresh env,
+    replacing the action by a uniformly random one with probability ``epsilon``.
 
-    Returns the mean return, fruits and poisons per episode, every return, and the seconds
-    it took (kept out of the training wall time)."""
+    Returns the mean return, fruits and poisons per episode, every return, the epsilon and
+    the seconds it took (kept out of the training wall time)."""
     start = time.perf_counter()
     env = make_env(scenario)
+    rng = np.random.default_rng(EVAL_SEED + seed)
+    n_actions = int(env.action_space.n)
     returns, fruits, poisons = [], [], []
     observation, info = env.reset(seed=EVAL_SEED + seed)
     for _ in range(episodes):
         total, done = 0.0, False
         while not done:
-            observation, reward, terminated, truncated, info = env.step(act(observation, info))
+            action = act(observation, info)
+            if rng.random() < epsilon:
+                action = int(rng.integers(n_actions))
+            observation, reward, terminated, truncated, info = env.step(action)
             total += float(reward)
             done = terminated or truncated
         returns.append(total)
@@ -141,6 +147,7 @@ def evaluate_policy(scenario: str, act, episodes: int, seed: int) -> dict:
         "fruits": float(np.mean(fruits)),
         "poisons": float(np.mean(poisons)),
         "returns": returns,
+        "epsilon": epsilon,
         "seconds": round(time.perf_counter() - start, 2),
     }
 

@@ -80,9 +80,13 @@ class Args:
     """Steps after the warm-up over which epsilon falls linearly to its end (the paper); at
     250k steps it is still about 0.17."""
     eval_episodes: int = 10
-    """Episodes played after training with epsilon 0 (the training policy ends at epsilon
-    0.17 after 250k steps), on env seeds training never used; their scores go into the
-    run's JSON (0: none)."""
+    """Episodes played after training by the final network (best action for the goal, with
+    ``eval_epsilon``; training ends at epsilon 0.17 after 250k steps), on env seeds training
+    never used; their scores go into the run's JSON (0: none)."""
+    eval_epsilon: float = 0.05
+    """Exploration rate of that play: 0.05, the usual test-time rate since DQN's Atari
+    evaluation. At 0 a reactive policy can stall for the rest of an episode (facing a wall,
+    or turning back and forth)."""
     keras_head: bool = False
     """Use the Keras implementation's output head: ReLU on the expectation and action
     streams, no normalisation. Off: the DFP paper's linear streams, each action stream
@@ -243,7 +247,9 @@ def main(args: Args) -> dict:
 
     evaluation = None
     if args.eval_episodes:
-        evaluation = evaluate_policy(args.scenario, greedy, args.eval_episodes, args.seed)
+        evaluation = evaluate_policy(
+            args.scenario, greedy, args.eval_episodes, args.seed, args.eval_epsilon
+        )
     summary = log.close(args.total_timesteps, env.seconds, evaluation=evaluation)
     print(
         f"done: {args.total_timesteps} steps in {total:.0f} s, "
@@ -252,7 +258,9 @@ def main(args: Args) -> dict:
     )
     if evaluation:
         print(
-            f"greedy play: mean return {evaluation['return']:g} over {args.eval_episodes} episodes"
+            f"after training (epsilon {args.eval_epsilon:g}): mean return "
+            f"{evaluation['return']:g} over {args.eval_episodes} episodes",
+            flush=True,
         )
     env.close()
     return summary

@@ -68,8 +68,12 @@ class Args:
     double_q: bool = True
     """Double DQN targets (keras-rl's default ``enable_double_dqn=True``)."""
     eval_episodes: int = 10
-    """Episodes played after training by the greedy policy (argmax Q), on env seeds training
-    never used; their scores go into the run's JSON (0: none)."""
+    """Episodes played after training by the final network (argmax Q, with ``eval_epsilon``),
+    on env seeds training never used; their scores go into the run's JSON (0: none)."""
+    eval_epsilon: float = 0.05
+    """Exploration rate of that play: 0.05, the usual test-time rate since DQN's Atari
+    evaluation. At 0 a reactive policy can stall for the rest of an episode (facing a wall,
+    or turning back and forth)."""
 
 
 class QNetwork(nn.Module):
@@ -185,7 +189,9 @@ def main(args: Args) -> dict:
 
     evaluation = None
     if args.eval_episodes:
-        evaluation = evaluate_policy(args.scenario, greedy, args.eval_episodes, args.seed)
+        evaluation = evaluate_policy(
+            args.scenario, greedy, args.eval_episodes, args.seed, args.eval_epsilon
+        )
     summary = log.close(args.total_timesteps, env.seconds, evaluation=evaluation)
     print(
         f"done: {args.total_timesteps} steps in {total:.0f} s "
@@ -195,7 +201,9 @@ def main(args: Args) -> dict:
     )
     if evaluation:
         print(
-            f"greedy play: mean return {evaluation['return']:g} over {args.eval_episodes} episodes"
+            f"after training (epsilon {args.eval_epsilon:g}): mean return "
+            f"{evaluation['return']:g} over {args.eval_episodes} episodes",
+            flush=True,
         )
     env.close()
     return summary

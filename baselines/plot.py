@@ -13,9 +13,9 @@ every seed completed. The table (Markdown, printed) gives per algorithm:
   episodes, then the mean over seeds +- the 95% t-interval half-width;
 - steps to 80% of final: the first episode from which the smoothed mean curve stays at or
   above 80% of the final return, as the mean over seeds of the steps done by then;
-- greedy play after training: per seed the mean return of the episodes its final network
-  played greedily (DQN and DFP store them in their JSON), then mean over seeds +- 95%
-  t-interval; it names how many seeds have it when not all do;
+- evaluation after training: per seed the mean return of the episodes its final network
+  played after training at ``--eval-epsilon`` (DQN and DFP store them in their JSON), then
+  the mean over seeds +- 95% t-interval; it names how many seeds have it when not all do;
 - wall time per seed (mean +- standard deviation) and the share of it spent in the
   environment (from the JSON files).
 
@@ -110,7 +110,9 @@ def curve(runs: list[Run], window: int) -> tuple[np.ndarray, np.ndarray, np.ndar
     return np.arange(1, n + 1), mean, half
 
 
-def summarise(label: str, runs: list[Run], window: int, final: float) -> dict:
+def summarise(
+    label: str, runs: list[Run], window: int, final: float, eval_epsilon: float = 0.05
+) -> dict:
     finals = np.array([r.returns[-max(1, int(len(r.returns) * final)) :].mean() for r in runs])
     fruits = np.mean([r.fruits[-max(1, int(len(r.fruits) * final)) :].mean() for r in runs])
     poisons = np.mean([r.poisons[-max(1, int(len(r.poisons) * final)) :].mean() for r in runs])
@@ -124,7 +126,11 @@ def summarise(label: str, runs: list[Run], window: int, final: float) -> dict:
         first = below[-1] + 1 if len(below) else 0
         if first < len(mean):
             to_80 = np.mean([r.steps[first] for r in runs])
-    greedy = [r.summary["evaluation"]["return"] for r in runs if "evaluation" in r.summary]
+    greedy = [
+        r.summary["evaluation"]["return"]
+        for r in runs
+        if "evaluation" in r.summary and r.summary["evaluation"].get("epsilon", 0.0) == eval_epsilon
+    ]
     walls = [r.summary["wall_seconds"] for r in runs if "wall_seconds" in r.summary]
     shares = [r.summary["env_share"] for r in runs if "env_share" in r.summary]
     return {
@@ -175,7 +181,7 @@ def thousands(steps: float) -> str:
 def table(rows: list[dict], reference_rows: list[dict]) -> str:
     lines = [
         "| algorithm | seeds x steps (episodes) | final return (mean ± 95% CI) | fruits / poisons "
-        "per episode (final) | steps to 80% of final | greedy play after training (mean ± 95% CI) "
+        "per episode (final) | steps to 80% of final | evaluation after training (mean ± 95% CI) "
         "| wall time per seed (mean ± std) | env share |",
         "|---|---|---|---|---|---|---|---|",
     ]
@@ -225,6 +231,12 @@ def main(argv: list[str] | None = None) -> None:
         help="episodes of greedy and random play to draw (0: none)",
     )
     parser.add_argument(
+        "--eval-epsilon",
+        type=float,
+        default=0.05,
+        help="report the evaluations after training played at this epsilon",
+    )
+    parser.add_argument(
         "--by-agent",
         action="store_true",
         help="also draw each agent's mean return (multi-agent runs)",
@@ -259,7 +271,7 @@ def main(argv: list[str] | None = None) -> None:
                     alpha=0.7,
                     label=f"{label} {agent}",
                 )
-        rows.append(summarise(label, runs, args.smooth, args.final))
+        rows.append(summarise(label, runs, args.smooth, args.final, args.eval_epsilon))
     reference_rows = references(scenario, args.references) if args.references else []
     for r, style in zip(reference_rows, ("--", ":")):
         axes.axhline(

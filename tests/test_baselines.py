@@ -66,7 +66,7 @@ def check_evaluation(data: dict, episodes: int) -> None:
     assert evaluation["return"] == pytest.approx(
         10 * (evaluation["fruits"] - evaluation["poisons"])
     )
-    assert evaluation["seconds"] > 0
+    assert evaluation["seconds"] > 0 and evaluation["epsilon"] == 0.05
 
 
 def test_evaluation_plays_whole_episodes_on_seeds_training_never_uses():
@@ -88,6 +88,28 @@ def test_evaluation_plays_whole_episodes_on_seeds_training_never_uses():
     assert not np.array_equal(seen[0], env.reset(seed=3)[0])  # training's first observation
     # The second episode continues the evaluation env's stream rather than starting over.
     assert not np.array_equal(seen[500], seen[0])
+
+
+def test_evaluation_takes_random_actions_at_its_epsilon():
+    from baselines.common import evaluate_policy
+
+    def views(epsilon):
+        seen = []
+
+        def turn(observation, info):
+            seen.append(observation.copy())
+            return 1  # rotate left: on the spot, so nothing is ever eaten
+
+        evaluation = evaluate_policy("fruits_poisons", turn, episodes=1, seed=0, epsilon=epsilon)
+        return np.array(seen), evaluation
+
+    still, evaluation = views(0.0)
+    assert evaluation["fruits"] == evaluation["poisons"] == 0 and evaluation["epsilon"] == 0.0
+    # Turning on the spot, a full turn later the agent sees the same view again.
+    period = next(k for k in range(1, 500) if np.allclose(still[k], still[0], atol=1e-6))
+    assert np.allclose(still[period : 2 * period], still[:period], atol=1e-6)
+    moved, _ = views(0.5)
+    assert not np.allclose(moved, still)
 
 
 def test_dqn_trains_and_logs_each_episode(tmp_path):
