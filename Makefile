@@ -63,7 +63,7 @@ results: $(STAMP)
 # Shared-parameter PPO on the paper's room with four agents.
 reproduce-multi: $(STAMP)
 	$(BIN)/python -m baselines.run ppo --seeds 3 --workers $(WORKERS) --steps 1000000 --out runs
-	$(BIN)/python -m baselines.plot $(RUNS)/ppo/fruits_poisons_multi --labels "PPO (shared)" \
+	$(BIN)/python -m baselines.plot $(RUNS)/ppo/fruits_poisons_multi --labels "PPO (shared parameters)" \
 		--by-agent --references 20 --out docs/images/results_fruits_poisons_multi.png
 
 lint: $(STAMP)

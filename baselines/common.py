@@ -152,6 +152,22 @@ def evaluate_policy(scenario: str, act, episodes: int, seed: int, epsilon: float
     }
 
 
+def evaluate_after_training(args, act) -> dict | None:
+    """``evaluate_policy`` with a run's ``eval_episodes`` and ``eval_epsilon`` (None when
+    ``eval_episodes`` is 0); prints the mean return."""
+    if not args.eval_episodes:
+        return None
+    evaluation = evaluate_policy(
+        args.scenario, act, args.eval_episodes, args.seed, args.eval_epsilon
+    )
+    print(
+        f"after training (epsilon {args.eval_epsilon:g}): mean return "
+        f"{evaluation['return']:g} over {args.eval_episodes} episodes",
+        flush=True,
+    )
+    return evaluation
+
+
 def input_channels(use_depth: bool) -> int:
     """RGB, plus depth when asked: the paper's DQN input is the (64, 3) colour image."""
     return 4 if use_depth else 3

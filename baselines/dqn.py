@@ -22,7 +22,7 @@ from baselines.common import (
     RunningNormalizer,
     conv_trunk,
     default_csv,
-    evaluate_policy,
+    evaluate_after_training,
     input_channels,
     keras_init,
     make_env,
@@ -187,11 +187,7 @@ def main(args: Args) -> dict:
         with torch.no_grad():
             return int(q_network(normalize(x_t) if args.normalize_inputs else x_t)[0].argmax())
 
-    evaluation = None
-    if args.eval_episodes:
-        evaluation = evaluate_policy(
-            args.scenario, greedy, args.eval_episodes, args.seed, args.eval_epsilon
-        )
+    evaluation = evaluate_after_training(args, greedy)
     summary = log.close(args.total_timesteps, env.seconds, evaluation=evaluation)
     print(
         f"done: {args.total_timesteps} steps in {total:.0f} s "
@@ -199,12 +195,6 @@ def main(args: Args) -> dict:
         f"env {summary['env_share']:.1%} of it",
         flush=True,
     )
-    if evaluation:
-        print(
-            f"after training (epsilon {args.eval_epsilon:g}): mean return "
-            f"{evaluation['return']:g} over {args.eval_episodes} episodes",
-            flush=True,
-        )
     env.close()
     return summary
 

@@ -126,7 +126,7 @@ def summarise(
         first = below[-1] + 1 if len(below) else 0
         if first < len(mean):
             to_80 = np.mean([r.steps[first] for r in runs])
-    greedy = [
+    evaluations = [
         r.summary["evaluation"]["return"]
         for r in runs
         if "evaluation" in r.summary and r.summary["evaluation"].get("epsilon", 0.0) == eval_epsilon
@@ -141,7 +141,9 @@ def summarise(
         "final": (float(final_mean), float(final_half)),
         "fruits_poisons": (float(fruits), float(poisons)),
         "steps_to_80": to_80,
-        "greedy": (*map(float, t_interval(np.array(greedy))), len(greedy)) if greedy else None,
+        "evaluation": (*map(float, t_interval(np.array(evaluations))), len(evaluations))
+        if evaluations
+        else None,
         "wall_minutes": (np.mean(walls) / 60, np.std(walls) / 60) if walls else None,
         "env_share": float(np.mean(shares)) if shares else None,
     }
@@ -189,17 +191,17 @@ def table(rows: list[dict], reference_rows: list[dict]) -> str:
         to_80 = f"{r['steps_to_80'] / 1000:.0f}k" if r["steps_to_80"] is not None else "not reached"
         wall = "{:.1f} ± {:.1f} min".format(*r["wall_minutes"]) if r["wall_minutes"] else "-"
         share = f"{r['env_share']:.1%}" if r["env_share"] is not None else "-"
-        greedy = "-"
-        if r["greedy"]:
-            mean, half, n = r["greedy"]
-            greedy = f"{mean:.1f} ± {half:.1f}" + (
+        evaluation = "-"
+        if r["evaluation"]:
+            mean, half, n = r["evaluation"]
+            evaluation = f"{mean:.1f} ± {half:.1f}" + (
                 f" ({n} of {r['seeds']} seeds)" if n < r["seeds"] else ""
             )
         lines.append(
             f"| {r['label']} | {r['seeds']} x {thousands(r['steps'])} ({r['episodes']}) | "
             f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
             f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | "
-            f"{to_80} | {greedy} | {wall} | {share} |"
+            f"{to_80} | {evaluation} | {wall} | {share} |"
         )
     for r in reference_rows:
         lines.append(
