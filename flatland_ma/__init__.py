@@ -8,6 +8,7 @@ gymnasium.make("flatland_ma/FruitsPoisons-v0")           # Gymnasium, one agent
 
 from __future__ import annotations
 
+from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.envs.aec import env
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.registration import register_gym_ids
@@ -25,6 +26,7 @@ __all__ = [
     "GYM_IDS",
     "FlatlandParallelEnv",
     "__version__",
+    "check_scenario",
     "env",
     "list_scenarios",
     "load_scenario",

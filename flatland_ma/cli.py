@@ -70,10 +70,12 @@ def _list(args) -> int:
 
 
 def _validate(args) -> int:
+    from flatland_ma.build.feasibility import check_scenario
+
     failures = 0
     for name in args.files:
         try:
-            spec = load_scenario(name)
+            spec = check_scenario(name)
         except ScenarioError as err:
             failures += 1
             print(f"{name}: INVALID\n{err}")

@@ -4,8 +4,8 @@ import textwrap
 
 import pytest
 
+from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.scenario.errors import ScenarioError
-from flatland_ma.scenario.loader import load_scenario
 
 
 def write(tmp_path, text, name="s.yaml"):
@@ -16,5 +16,5 @@ def write(tmp_path, text, name="s.yaml"):
 
 def problems(path, **overrides):
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path, **overrides)
+        check_scenario(path, **overrides)
     return info.value.problems

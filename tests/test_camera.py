@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import flatland_ma
-from flatland_ma.sensors.camera import Camera
+from flatland_ma.build.bodies import make_sensors
 
 
 def place(env, index, x, y, angle):
@@ -56,7 +56,7 @@ def test_an_empty_room_is_seen_at_the_analytic_distances(x, y, heading):
 
 
 def test_rays_are_spread_over_the_field_of_view_left_to_right():
-    camera = Camera(flatland_ma.load_scenario("fruits_poisons").agent.camera)
+    (camera,) = make_sensors(flatland_ma.load_scenario("fruits_poisons").agent)
     assert camera.n_rays == 64
     step = math.radians(120) / 64
     np.testing.assert_allclose(np.diff(camera.angles), -step)
@@ -121,7 +121,7 @@ def test_shipped_agents_wear_colours_nothing_else_in_their_world_has(scenario):
     env = flatland_ma.parallel_env(scenario)
     env.reset(seed=0)
     agents = {id(body) for body in env.episode.bodies}
-    agents |= {id(part) for body in env.episode.bodies for part in body.parts}
+    agents |= {id(part) for body in env.episode.bodies for part in body.links}
     world_colours = set()
     for entity in env.episode.world.entities:
         if id(entity) not in agents:

@@ -5,7 +5,9 @@ import numpy as np
 import pytest
 
 import flatland_ma
-from flatland_ma.scenario import layout
+from flatland_ma.build import layout
+from flatland_ma.build.generators import Maze
+from flatland_ma.build.ground import Ground
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.world.entities import Obstacle, Wall
 
@@ -61,7 +63,8 @@ def test_maze_is_a_spanning_tree_of_its_cells_unless_loops_are_added(loops):
         "maze_goal", layout={"generators": [{"generator": "maze", "cell": 50, "loops": loops}]}
     )
     gen = spec.layout.generators[0]
-    pieces = layout.maze(gen, spec, np.random.default_rng(3), 0)
+    pieces = Ground(spec)  # the maze's wall pieces, before anything is built
+    Maze(gen, spec, ("layout", "generators", 0)).generate(pieces, np.random.default_rng(3))
     # Count the cell-sized wall units (merged pieces span several cells).
     units = sum(
         round((max(abs(p.end[0] - p.start[0]), abs(p.end[1] - p.start[1])) - p.thickness) / 50)

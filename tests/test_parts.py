@@ -113,9 +113,9 @@ def test_other_agents_see_an_agents_parts():
     place(env, 1, 150.0, 150.0, math.pi / 2)  # its arm points north, across agent 0's view
     act(env, "stay", others="stay")
     seen = set(env.episode.sensors.hit_entity[env.episode.sensors.slices[0]])
-    parts = {p.index for p in env.episode.bodies[1].parts}
+    parts = {p.index for p in env.episode.bodies[1].links}
     assert parts & seen
-    own = {p.index for p in env.episode.bodies[0].parts} | {env.episode.bodies[0].index}
+    own = {p.index for p in env.episode.bodies[0].links} | {env.episode.bodies[0].index}
     assert not own & seen
 
 
@@ -143,7 +143,7 @@ def test_a_closed_hand_holds_what_it_touches_carries_it_and_lets_go():
     bx, by = ball.body.position
     assert math.degrees(base.angle) > 80 and math.dist(start, (bx, by)) > 30
     grip = hand.segment.body.local_to_world(hand.shape.offset)
-    assert math.dist(grip, (bx, by)) < 3.0 + 7.0 + hand.spec.break_distance  # still in hand
+    assert math.dist(grip, (bx, by)) < 3.0 + 7.0 + hand.break_distance  # still in hand
     act(env, "release")
     assert hand.held is None and not hand.closed
     act(env, "stay", steps=20)  # it rolls on a little, and floor friction stops it

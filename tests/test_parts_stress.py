@@ -152,7 +152,7 @@ def test_physics_stays_sane_at_the_strongest_settings_under_random_actions():
         worst["energy"] = max(worst["energy"], energy)  # seed 0: 1.0e6, 2.8% of the bound
         for agent in env.episode.bodies:
             held += sum(hand.held is not None for hand in agent.hands)
-            for part in agent.parts:
+            for part in agent.links:
                 lo, hi = part.limits
                 over = max(lo - part.angle_to_parent, part.angle_to_parent - hi)
                 assert over <= JOINT_TOLERANCE, (t, part.angle_to_parent, lo, hi)

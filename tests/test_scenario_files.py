@@ -5,15 +5,16 @@ import numpy as np
 import pytest
 
 import flatland_ma
-from flatland_ma.scenario import builder, capacity
+from flatland_ma.build import capacity, feasibility, generators
+from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.scenario.errors import ScenarioError
-from flatland_ma.scenario.loader import load_scenario, scenario_dir
+from flatland_ma.scenario.loader import scenario_dir
 from tests.scenario_helpers import problems, write
 
 
 @pytest.mark.parametrize("name", flatland_ma.list_scenarios())
 def test_every_shipped_scenario_validates_and_describes_itself(name):
-    spec = load_scenario(name)
+    spec = check_scenario(name)
     assert spec.description
     text = (scenario_dir() / f"{name}.yaml").read_text()
     assert text.startswith("# "), "each file starts with a comment saying what the task is"
@@ -54,8 +55,8 @@ def test_yaml_syntax_errors_and_duplicate_keys(tmp_path):
 
 def test_extends_merges_over_the_base_and_reports_the_right_file(tmp_path):
     child = write(tmp_path, "extends: fruits_poisons\nn_agents: 3\nagent:\n  camera: {rays: 16}\n")
-    spec = load_scenario(child)
-    base = load_scenario("fruits_poisons")
+    spec = check_scenario(child)
+    base = check_scenario("fruits_poisons")
     assert spec.n_agents == 3 and spec.agent.camera.rays == 16
     assert spec.agent.camera.fov == base.agent.camera.fov and spec.obstacles == base.obstacles
     bad = write(tmp_path, "extends: fruits_poisons\nagent:\n  camera: {rays: -1}\n", "bad.yaml")
@@ -68,12 +69,12 @@ def test_extends_merges_over_the_base_and_reports_the_right_file(tmp_path):
 
 
 def test_overrides_merge_like_a_file_and_are_validated_the_same_way():
-    spec = load_scenario("fruits_poisons", n_agents=2, agent={"camera": {"rays": 128}})
+    spec = check_scenario("fruits_poisons", n_agents=2, agent={"camera": {"rays": 128}})
     assert spec.n_agents == 2 and spec.agent.camera.rays == 128 and spec.agent.camera.fov == 120
-    spec = load_scenario("fruits_poisons", obstacles=[])
+    spec = check_scenario("fruits_poisons", obstacles=[])
     assert spec.obstacles == ()
     with pytest.raises(ScenarioError) as info:
-        load_scenario("fruits_poisons", agent={"camera": {"rays": "many"}})
+        check_scenario("fruits_poisons", agent={"camera": {"rays": "many"}})
     (p,) = info.value.problems
     assert p.source == "<overrides>" and p.line is None and p.path == ("agent", "camera", "rays")
     assert str(p).startswith("<overrides>: agent.camera.rays:")
@@ -113,7 +114,7 @@ items:
     def keys_at(first, second):
         return arena.replace("FIRST", str(first)).replace("SECOND", str(second))
 
-    assert load_scenario(write(tmp_path, keys_at(100, 300))).doors
+    assert check_scenario(write(tmp_path, keys_at(100, 300))).doors
     (p,) = problems(write(tmp_path, keys_at(300, 100)))
     assert p.path == ("items", 0, "positions", 0) and p.line == 11
     assert p.message == (
@@ -124,7 +125,7 @@ items:
 
 def test_an_obstacle_overlapping_a_wall_names_the_wall_too(tmp_path):
     with pytest.raises(ScenarioError) as info:
-        load_scenario("fruits_poisons", walls=[{"start": [60, 0], "end": [60, 300]}])
+        check_scenario("fruits_poisons", walls=[{"start": [60, 0], "end": [60, 300]}])
     obstacle, wall = info.value.problems
     assert obstacle.path == ("obstacles", 0) and "overlaps a wall (walls[0])" in obstacle.message
     assert wall.source == "<overrides>" and wall.path == ("walls", 0)
@@ -146,9 +147,9 @@ def test_an_unknown_key_in_an_optional_section_lists_that_sections_keys(tmp_path
 
 
 def test_numpy_numbers_are_accepted_as_overrides():
-    spec = load_scenario("fruits_poisons", n_agents=np.int64(2), agent={"radius": np.float32(8.0)})
+    spec = check_scenario("fruits_poisons", n_agents=np.int64(2), agent={"radius": np.float32(8.0)})
     assert spec.n_agents == 2 and type(spec.n_agents) is int and spec.agent.radius == 8.0
-    spec = load_scenario("fruits_poisons", arena={"size": np.array([320.0, 300.0])})
+    spec = check_scenario("fruits_poisons", arena={"size": np.array([320.0, 300.0])})
     assert spec.arena.size == (320.0, 300.0)
 
 
@@ -169,11 +170,11 @@ def test_random_obstacles_cut_off_no_team_from_its_spawn_area(monkeypatch):
         starts.append((grid, start))
         return scatter(gen, world, grid, start, rng, path)
 
-    scatter = builder.scatter_obstacles
-    monkeypatch.setattr(builder, "scatter_obstacles", recording)
+    scatter = generators.scatter_obstacles
+    monkeypatch.setattr(generators, "scatter_obstacles", recording)
     layout = {"generators": [{"generator": "random_obstacles", "count": 3}]}
     # Nobody starts in agent.spawn (each team has its own area): only the teams' count.
-    spec = load_scenario("tug_of_war", layout=layout, agent={"spawn": {"area": [240, 0, 260, 20]}})
+    spec = check_scenario("tug_of_war", layout=layout, agent={"spawn": {"area": [240, 0, 260, 20]}})
     grid, start = starts[0]
     for team in spec.teams:
         assert start[grid.cells_in(team.spawn.area)].all()
@@ -184,7 +185,7 @@ def test_a_placement_that_fails_at_reset_names_the_file_and_key(tmp_path, monkey
     """Loading checks a few seeds with room to spare; with those checks loosened, a reset
     that finds no room raises a located ScenarioError, not a bare error from the builder."""
     monkeypatch.setattr(capacity, "MAX_COVER", 1.0)
-    monkeypatch.setattr(builder, "CHECK_SEEDS", 1)
+    monkeypatch.setattr(feasibility, "CHECK_SEEDS", 1)
     text = "extends: fruits_poisons\nitems:\n  - {name: a, color: red, radius: 10, count: 100}\n"
     env = flatland_ma.parallel_env(write(tmp_path, text))
     failures = []

@@ -20,9 +20,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import flatland_ma
-from flatland_ma.scenario import builder
+from flatland_ma.build import feasibility
+from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.scenario.errors import ScenarioError
-from flatland_ma.scenario.loader import load_scenario, scenario_dir
+from flatland_ma.scenario.loader import scenario_dir
 from flatland_ma.world.navigation import MAX_CELLS, NavGrid
 
 NAMES = flatland_ma.list_scenarios()
@@ -221,7 +222,7 @@ def fault(tmp_path, text: str):
     path = tmp_path / "s.yaml"
     path.write_text(text)
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
+        check_scenario(path)
     (problem, *_) = info.value.problems
     assert problem.source == str(path)
     return problem
@@ -270,7 +271,7 @@ def test_out_of_bounds_input_is_located(tmp_path, text, key, words):
 def test_walls_may_end_on_the_boundary_walls(tmp_path):
     path = tmp_path / "s.yaml"
     path.write_text("walls:\n  - {start: [150, -5], end: [150, 305]}\n")
-    assert load_scenario(path).walls[0].end == (150, 305)
+    assert check_scenario(path).walls[0].end == (150, 305)
 
 
 def test_deep_nesting_and_alias_bombs_are_refused_quickly(tmp_path):
@@ -284,11 +285,11 @@ def test_an_unexpected_exception_still_names_the_file(tmp_path, monkeypatch):
     def broken(spec):
         raise ZeroDivisionError("a bug")
 
-    monkeypatch.setattr(builder, "check_layout", broken)
+    monkeypatch.setattr(feasibility, "check_layout", broken)
     path = tmp_path / "s.yaml"
     path.write_text("n_agents: 2\n")
     with pytest.raises(ScenarioError) as info:
-        load_scenario(path)
+        check_scenario(path)
     (problem,) = info.value.problems
     assert problem.source == str(path) and "internal error" in problem.message
     assert isinstance(info.value.__cause__, ZeroDivisionError)  # the bug is not hidden

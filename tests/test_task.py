@@ -17,7 +17,7 @@ def items(env):
 def put_item_ahead(env, agent_index, group, distance):
     """Move the first visible item of ``group`` straight ahead of the agent."""
     body = env.episode.bodies[agent_index].body
-    item = next(i for i in items(env) if i.group == group and i.visible)
+    item = next(i for i in items(env) if i.group.index == group and i.visible)
     x = body.position.x + distance * math.cos(body.angle)
     y = body.position.y + distance * math.sin(body.angle)
     env.episode.world.move_static(item, x, y)
@@ -57,7 +57,7 @@ def test_touching_an_item_gives_its_reward_and_counts(env, group, reward, counte
     # It reappeared elsewhere, at a free place, and the room holds as many as before.
     assert item.visible
     assert math.dist(item.body.position, env.episode.bodies[0].body.position) > 20.0
-    assert sum(i.group == group and i.visible for i in items(env)) == 10
+    assert sum(i.group.index == group and i.visible for i in items(env)) == 10
 
 
 def test_rewards_are_floats_and_counters_start_at_zero(env):
@@ -98,7 +98,7 @@ def test_two_agents_touching_one_item_in_one_step_share_nothing():
     for b, x, a in ((bodies[0], 120.0, 0.0), (bodies[1], 180.0, math.pi)):
         b.body.position, b.body.angle = (x, 150.0), a
         env.episode.world.space.reindex_shapes_for_body(b.body)
-    fruit = next(i for i in items(env) if i.group == 0)
+    fruit = next(i for i in items(env) if i.group.index == 0)
     env.episode.world.move_static(fruit, 150.0, 150.0)
     total = {"agent_0": 0.0, "agent_1": 0.0}
     for _ in range(4):

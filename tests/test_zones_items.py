@@ -85,13 +85,13 @@ def test_random_zones_stay_put_for_the_episode_and_move_between_episodes():
     zone = {"size": [30, 30], "area": [0, 0, 300, 150], "reward": 1.0}
     env = flatland_ma.parallel_env("fruits_poisons", items=[], zones=[zone], **OPEN)
     env.reset(seed=0)
-    first = env.episode.task.zones.rects.copy()
+    first = [z.rect for z in env.episode.world.zones]
     walk(env, 30)
-    np.testing.assert_array_equal(env.episode.task.zones.rects, first)
+    np.testing.assert_array_equal([z.rect for z in env.episode.world.zones], first)
     x0, y0, x1, y1 = first[0]
     assert (x1 - x0, y1 - y0) == (30, 30) and y1 <= 150
     env.reset(seed=1)
-    assert not np.array_equal(env.episode.task.zones.rects, first)
+    assert not np.array_equal([z.rect for z in env.episode.world.zones], first)
 
 
 def test_delayed_respawn_and_fixed_positions():

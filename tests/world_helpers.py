@@ -14,7 +14,7 @@ def place(env, index, x, y, angle=0.0):
 
 def items(env, group=None):
     found = [e for e in env.episode.world.entities if isinstance(e, Item)]
-    return [i for i in found if group is None or env.spec.items[i.group].name == group]
+    return [i for i in found if group is None or i.group.name == group]
 
 
 def doors(env):

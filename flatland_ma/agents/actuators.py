@@ -1,23 +1,24 @@
 """Actions: their spaces, their names, their validation, and how they become commands.
 
 A plain body keeps the paper's ``Discrete(3)`` (forward, rotate left, rotate right) or
-``Box(-1, 1, (3,))`` (longitudinal, lateral, angular). Each part adds its controls:
+``Box(-1, 1, (3,))`` (longitudinal, lateral, angular). Every control of every part adds
+to that (see ``parts.Control``), in the order of the parts:
 
-- discrete: named macro actions, one at a time; the base moves only for ``forward`` and the
-  rotations, a part's joint moves only for its own macro, every other joint holds still.
-  A head adds ``head_left`` and ``head_right``; each arm joint ``arm<k>_joint<j>_left`` and
-  ``..._right`` (``arm_left`` / ``arm_right`` when there is one arm of one joint); each
-  grasper ``arm<k>_grasp`` and ``arm<k>_release`` (``grasp`` / ``release`` for one). With
-  parts, ``stay`` (do nothing) is added after the base's actions.
+- discrete: named macro actions, one at a time; the base moves only for ``forward`` and
+  the rotations, a part's control is set to +1 or -1 only by its own two macros (e.g.
+  ``head_left`` and ``head_right``, ``grasp`` and ``release``), and every other control is
+  left alone (joints hold still, hands stay as they are). With parts, ``stay`` (do
+  nothing) comes after the base's actions.
 - continuous: one Box whose entries are, in order, longitudinal, lateral, angular, then
-  ``head`` (turn rate), one ``arm<k>_joint<j>`` per joint (rate), one ``arm<k>_grip`` per
-  grasper (> 0 closes the hand, <= 0 opens it). All in [-1, 1], as fractions of top speeds.
+  one per control (e.g. ``head``, ``arm``, ``arm_grip``). All in [-1, 1], as fractions of
+  top speeds (a grip > 0 closes the hand, <= 0 opens it).
 
 ``names`` lists what each discrete action or continuous entry means, in order.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -25,7 +26,7 @@ import numpy as np
 from gymnasium import spaces
 
 from flatland_ma.agents.body import AgentBody
-from flatland_ma.scenario.schema import AgentSpec
+from flatland_ma.agents.parts import Part
 
 
 class DiscreteAction(IntEnum):
@@ -42,15 +43,12 @@ CONTINUOUS_DIMENSIONS = ("longitudinal", "lateral", "angular")
 
 @dataclass(frozen=True)
 class Macro:
-    """One discrete action: a base command and at most one part command."""
+    """One discrete action: a base command and a value for each control (None: left
+    alone)."""
 
     name: str
     base: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    head: float = 0.0
-    joint: int = -1
-    rate: float = 0.0
-    hand: int = -1
-    grip: bool | None = None
+    values: tuple[float | None, ...] = ()
 
 
 class InvalidActionError(ValueError):
@@ -64,68 +62,45 @@ class InvalidActionError(ValueError):
         )
 
 
-def part_controls(spec: AgentSpec) -> tuple[list[str], list[str]]:
-    """Names of the arm joints and of the graspers, in action order."""
-    joints, hands = [], []
-    single = len(spec.arms) == 1
-    for k, arm in enumerate(spec.arms):
-        label = "arm" if single else f"arm{k}"
-        for j in range(len(arm.segments)):
-            joints.append(label if single and len(arm.segments) == 1 else f"{label}_joint{j}")
-        if arm.grasper is not None:
-            hands.append(label)
-    return joints, hands
-
-
-def discrete_macros(spec: AgentSpec) -> list[Macro]:
+def discrete_macros(parts: Sequence[Part]) -> list[Macro]:
+    controls = [c for part in parts for c in part.controls]
+    idle = (None,) * len(controls)
     macros = [
-        Macro("forward", base=(1.0, 0.0, 0.0)),
-        Macro("rotate_left", base=(0.0, 0.0, 1.0)),
-        Macro("rotate_right", base=(0.0, 0.0, -1.0)),
+        Macro("forward", (1.0, 0.0, 0.0), idle),
+        Macro("rotate_left", (0.0, 0.0, 1.0), idle),
+        Macro("rotate_right", (0.0, 0.0, -1.0), idle),
     ]
-    joints, hands = part_controls(spec)
-    if spec.head is None and not joints:
+    if not controls:
         return macros
-    macros.append(Macro("stay"))
-    if spec.head is not None:
-        macros += [Macro("head_left", head=1.0), Macro("head_right", head=-1.0)]
-    for j, name in enumerate(joints):
-        macros += [
-            Macro(f"{name}_left", joint=j, rate=1.0),
-            Macro(f"{name}_right", joint=j, rate=-1.0),
-        ]
-    single = len(hands) == 1
-    for h, name in enumerate(hands):
-        prefix = "" if single else f"{name}_"
-        macros += [
-            Macro(f"{prefix}grasp", hand=h, grip=True),
-            Macro(f"{prefix}release", hand=h, grip=False),
-        ]
+    macros.append(Macro("stay", values=idle))
+    for k, control in enumerate(controls):
+        for name, value in ((control.plus, 1.0), (control.minus, -1.0)):
+            values = idle[:k] + (value,) + idle[k + 1 :]
+            macros.append(Macro(name, values=values))
     return macros
 
 
-def continuous_names(spec: AgentSpec) -> tuple[str, ...]:
-    joints, hands = part_controls(spec)
-    head = ("head",) if spec.head is not None else ()
-    return CONTINUOUS_DIMENSIONS + head + tuple(joints) + tuple(f"{h}_grip" for h in hands)
+def continuous_names(parts: Sequence[Part]) -> tuple[str, ...]:
+    return CONTINUOUS_DIMENSIONS + tuple(c.name for part in parts for c in part.controls)
 
 
 class Actuator:
-    """Validates one agent's actions and turns them into commands for its body."""
+    """Validates one agent's actions and turns them into commands for its body.
 
-    def __init__(self, spec: AgentSpec):
-        self.mode = spec.actions
-        joints, hands = part_controls(spec)
-        self.n_joints, self.n_hands = len(joints), len(hands)
-        self.has_head = spec.head is not None
-        if self.mode == "discrete":
-            self.macros = discrete_macros(spec)
+    ``mode`` is ``discrete`` or ``continuous``; ``parts`` are the agent's parts (their
+    controls make the action layout; the body commanded must have parts of that layout).
+    """
+
+    def __init__(self, mode: str, parts: Sequence[Part] = ()):
+        self.mode = mode
+        self.n_controls = sum(len(part.controls) for part in parts)
+        if mode == "discrete":
+            self.macros = discrete_macros(parts)
             self.names = tuple(m.name for m in self.macros)
             self.space: spaces.Space = spaces.Discrete(len(self.macros))
         else:
-            self.names = continuous_names(spec)
+            self.names = continuous_names(parts)
             self.space = spaces.Box(-1.0, 1.0, (len(self.names),), np.float32)
-        self._parts = self.has_head or self.n_joints or self.n_hands
 
     def index(self, name: str) -> int:
         """The discrete action, or the continuous entry, called ``name``."""
@@ -144,25 +119,12 @@ class Actuator:
         if self.mode == "discrete":
             macro = self.macros[action]
             body.command(*macro.base)
-            if self._parts:
-                joints = [0.0] * self.n_joints
-                grips = [None] * self.n_hands
-                if macro.joint >= 0:
-                    joints[macro.joint] = macro.rate
-                if macro.hand >= 0:
-                    grips[macro.hand] = macro.grip
-                body.command_parts(macro.head, joints, grips)
-            body.drive()
-            return
-        body.command(float(action[0]), float(action[1]), float(action[2]))
-        if self._parts:
-            k = 3
-            head = float(action[k]) if self.has_head else 0.0
-            k += self.has_head
-            joints = [float(a) for a in action[k : k + self.n_joints]]
-            k += self.n_joints
-            grips = [bool(a > 0.0) for a in action[k : k + self.n_hands]]
-            body.command_parts(head, joints, grips)
+            if self.n_controls:
+                body.command_parts(macro.values)
+        else:
+            body.command(float(action[0]), float(action[1]), float(action[2]))
+            if self.n_controls:
+                body.command_parts([float(a) for a in action[3:]])
         body.drive()
 
     def _check_discrete(self, agent: str, action: object) -> int:

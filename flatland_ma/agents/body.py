@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import pymunk
 
-from flatland_ma.scenario.schema import AgentSpec
-from flatland_ma.world.entities import RGB, Category, CollisionType, Entity, shape_filter
+from flatland_ma.world.entities import Category, CollisionType, Entity, shape_filter
+from flatland_ma.world.looks import RGB
 
 
 @dataclass(eq=False)
@@ -42,13 +42,17 @@ class AgentBody(Entity):
     touching: int = 0
     """Number of solid shapes the agent touches (kept by the world's contact callbacks)."""
     parts: list = field(default_factory=list)
-    """Head and arm segments (``parts.Part``), each a body joined to the base."""
+    """Its parts (``parts.Part``: head, arm segments, graspers), in the order of their
+    controls."""
+    links: list = field(default_factory=list)
+    """The bodies its parts add (``parts.Link``: head, arm segments), each on a joint,
+    parents before children."""
     head: object = None
-    """The head part, if any."""
+    """The head's link, if any (a camera may sit on it)."""
     joints: list = field(default_factory=list)
-    """The motorised arm joints, in action order."""
+    """The arm segments' links, in action order."""
     hands: list = field(default_factory=list)
-    """The graspers (``grasp.Hand``), in action order."""
+    """The graspers (``grasp.Grasper``), in action order."""
     target: tuple[float, float, float] = (0.0, 0.0, 0.0)
     """Commanded velocity and turn rate of the base, in world coordinates."""
 
@@ -56,22 +60,20 @@ class AgentBody(Entity):
     def actor(self) -> AgentBody:
         return self
 
-    def command_parts(self, head: float, joints, grips) -> None:
-        """Motor rates as fractions of their top speeds; ``grips``: True closes a hand,
-        False opens it, None leaves it."""
+    def command_parts(self, values) -> None:
+        """One value per control of the parts, in order (None: not commanded this step);
+        each part reads its own values (see ``parts.Part.command``)."""
         # Each body's angle read once (pymunk's accessors dominate this step's cost).
         angles = {self.body: self.body.angle}
+        for link in self.links:
+            angles[link.body] = link.body.angle
+        k = 0
         for part in self.parts:
-            angles[part.body] = part.body.angle
-        if self.head is not None:
-            self._set_rate(self.head, head, angles)
-        for part, rate in zip(self.joints, joints):
-            self._set_rate(part, rate, angles)
-        for hand, grip in zip(self.hands, grips):
-            if grip is not None:
-                hand.closed = grip
+            n = len(part.controls)
+            part.command(values[k : k + n], angles)
+            k += n
 
-    def _set_rate(self, part, fraction: float, angles: dict) -> None:
+    def set_rate(self, part, fraction: float, angles: dict) -> None:
         """Drive a joint at ``fraction`` of its top speed, slowed so as to stop at its
         limits by the end of the step (pymunk's motor rate is parent minus child)."""
         wanted = fraction * part.max_rate
@@ -89,7 +91,7 @@ class AgentBody(Entity):
         ox, oy = body.position
         turn = angle - body.angle
         c, s = math.cos(turn), math.sin(turn)
-        for b in (body, *(p.body for p in self.parts)):
+        for b in (body, *(link.body for link in self.links)):
             px, py = b.position
             dx, dy = px - ox, py - oy
             b.angle += turn  # (pymunk turns about the centre of gravity: angle first)
@@ -118,9 +120,10 @@ class AgentBody(Entity):
         body = self.body
         vx, vy, w = self.target
         dw = max(-self.max_dw, min(self.max_dw, w - body.angular_velocity))
-        if self.parts and self.touching:
+        links = self.links
+        if links and self.touching:
             return
-        if not self.parts:
+        if not links:
             body.angular_velocity += dw
             if self.touching:
                 return
@@ -129,7 +132,7 @@ class AgentBody(Entity):
         dv = math.hypot(dvx, dvy)
         if dv > self.max_dv:
             dvx, dvy = dvx * self.max_dv / dv, dvy * self.max_dv / dv
-        if not self.parts:
+        if not links:
             body.velocity = (bvx + dvx, bvy + dvy)
             return
         # Read each body once: position of its origin (the joint), angle, velocity, spin.
@@ -138,7 +141,7 @@ class AgentBody(Entity):
         _set(body, "velocity", (bvx + dvx, bvy + dvy))
         _set(body, "angular_velocity", bw + dw)
         change = {body: (dvx, dvy, dw, bx, by, bw)}  # and the centre of gravity, old spin
-        for part in self.parts:
+        for part in links:
             child = part.body
             pdx, pdy, pdw, px, py, pw = change[part.parent]
             jx, jy = child.position
@@ -165,19 +168,27 @@ _set = object.__setattr__
 
 
 def make_agent_body(
-    spec: AgentSpec,
     agent_index: int,
     position: tuple[float, float],
     angle: float,
     color: RGB,
     substep_dt: float,
     step_dt: float,
+    radius: float = 10.0,
+    mass: float = 1.0,
+    max_speed: float = 200.0,
+    max_turn_rate: float = 300.0,
+    max_force: float = 15_000.0,
+    max_torque: float = 100_000.0,
 ) -> AgentBody:
-    moment = pymunk.moment_for_circle(spec.mass, 0.0, spec.radius)
-    body = pymunk.Body(spec.mass, moment)
+    """A round base of ``radius`` and ``mass`` with its motor: top ``max_speed`` (units
+    per second) and ``max_turn_rate`` (degrees per second), reached with at most
+    ``max_force`` and ``max_torque``."""
+    moment = pymunk.moment_for_circle(mass, 0.0, radius)
+    body = pymunk.Body(mass, moment)
     body.position = position
     body.angle = angle
-    shape = pymunk.Circle(body, spec.radius)
+    shape = pymunk.Circle(body, radius)
     shape.collision_type = CollisionType.AGENT
     shape.filter = shape_filter(Category.AGENT)
     shape.friction = 0.3
@@ -186,11 +197,11 @@ def make_agent_body(
     control.position = position
     pivot = pymunk.PivotJoint(control, body, (0.0, 0.0), (0.0, 0.0))
     pivot.max_bias = 0.0
-    pivot.max_force = spec.max_force
+    pivot.max_force = max_force
     gear = pymunk.GearJoint(control, body, 0.0, 1.0)
     gear.max_bias = 0.0
-    gear.max_force = spec.max_torque
-    agent = AgentBody(
+    gear.max_force = max_torque
+    return AgentBody(
         body=body,
         shapes=(shape,),
         color=color,
@@ -198,10 +209,9 @@ def make_agent_body(
         aux_bodies=(control,),
         owner=agent_index,
         control=control,
-        max_speed=spec.max_speed,
-        max_turn_rate=math.radians(spec.max_turn_rate),
-        max_dv=spec.max_force * substep_dt / spec.mass,
-        max_dw=spec.max_torque * substep_dt / moment,
+        max_speed=max_speed,
+        max_turn_rate=math.radians(max_turn_rate),
+        max_dv=max_force * substep_dt / mass,
+        max_dw=max_torque * substep_dt / moment,
         step_dt=step_dt,
     )
-    return agent

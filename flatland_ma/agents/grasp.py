@@ -1,18 +1,19 @@
 """Graspers: a closed hand that touches a graspable object holds it with a pivot joint.
 
-The hold transmits at most the grasper's ``strength``; pulled harder (an object too heavy
-to drag, another agent tugging), the object slips, and once it has slipped farther than
-``break_distance`` the hold breaks and the hand opens. It cannot close on anything again
-for ``REGRASP_STEPS`` steps.
+A grasper is a part (one control: > 0 closes the hand, otherwise it opens) at the tip of
+an arm segment. The hold transmits at most the grasper's ``strength``; pulled harder (an
+object too heavy to drag, another agent tugging), the object slips, and once it has
+slipped farther than ``break_distance`` the hold breaks and the hand opens. It cannot
+close on anything again for ``REGRASP_STEPS`` steps.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import pymunk
 
-from flatland_ma.scenario.schema import GrasperSpec
+from flatland_ma.agents.body import AgentBody
+from flatland_ma.agents.parts import ArmSegment, Control, Part, agent_filter
+from flatland_ma.world.entities import CollisionType, Entity
 
 REGRASP_STEPS = 15
 """Steps after a hold breaks during which the hand cannot grasp."""
@@ -20,18 +21,60 @@ HOLD_BIAS = 300.0
 """Fastest speed (units per second) at which a hold pulls a slipped object back."""
 
 
-@dataclass(eq=False)
-class Hand:
-    spec: GrasperSpec
-    shape: pymunk.Circle
-    segment: object
-    """The arm segment (``parts.Part``) whose tip it is."""
-    closed: bool = False
-    touching: list = field(default_factory=list)
-    """Graspable objects the hand touches now, first touched first."""
-    joint: pymunk.PivotJoint | None = None
-    held: object = None
-    cooldown: int = 0
+class Grasper(Part, kind="grasper"):
+    """A disc of ``radius`` at the tip of ``segment`` that holds what it touches when
+    closed (see the module docstring). ``grip`` names its continuous entry, ``prefix``
+    starts the names of its ``grasp`` and ``release`` macros."""
+
+    def __init__(
+        self,
+        grip: str,
+        prefix: str,
+        label: str,
+        segment: ArmSegment,
+        radius: float = 3.0,
+        strength: float = 4_000.0,
+        break_distance: float = 6.0,
+    ):
+        self.segment_part = segment
+        self.radius, self.strength, self.break_distance = radius, strength, break_distance
+        self.controls = (Control(grip, f"{prefix}grasp", f"{prefix}release"),)
+        self.label = label
+        self.shape: pymunk.Circle | None = None
+        self.segment = None
+        """The arm segment's link whose tip it is."""
+        self.closed = False
+        self.touching: list[Entity] = []
+        """Graspable objects the hand touches now, first touched first (the world keeps
+        it up to date)."""
+        self.joint: pymunk.PivotJoint | None = None
+        self.held = None
+        self.cooldown = 0
+
+    def build(self, agent: AgentBody) -> None:
+        tip = self.segment_part.link
+        grip = pymunk.Circle(tip.body, self.radius, (self.segment_part.length, 0.0))
+        grip.collision_type = CollisionType.GRASPER
+        grip.filter = agent_filter(agent.owner)
+        grip.friction = 1.0
+        tip.shapes = (*tip.shapes, grip)
+        self.shape, self.segment = grip, tip
+        agent.hands.append(self)
+        return None
+
+    def command(self, values, angles: dict) -> None:
+        (value,) = values
+        if value is not None:
+            self.closed = value > 0.0
+
+    def reach(self) -> float:
+        return self.segment_part.reach() + self.radius
+
+    def top_speed(self, base_speed: float, base_turn: float) -> float:
+        return self.segment_part.top_speed(base_speed, base_turn)
+
+    def half_width(self) -> float:
+        return self.radius
 
     def slip(self) -> float:
         """How far the held object has slipped from where it was grasped."""
@@ -43,7 +86,7 @@ class Hand:
 class Hands:
     """All the graspers of one world; ``update`` runs after each physics step."""
 
-    def __init__(self, space: pymunk.Space, hands: list[Hand]):
+    def __init__(self, space: pymunk.Space, hands: list[Grasper]):
         self.space = space
         self.hands = hands
 
@@ -52,7 +95,7 @@ class Hands:
             if hand.held is not None:
                 if not hand.closed:
                     self.let_go(hand)
-                elif hand.slip() > hand.spec.break_distance:
+                elif hand.slip() > hand.break_distance:
                     self.let_go(hand)
                     hand.closed = False
                     hand.cooldown = REGRASP_STEPS
@@ -64,18 +107,18 @@ class Hands:
                         self._hold(hand, thing)
                         break
 
-    def _hold(self, hand: Hand, thing) -> None:
+    def _hold(self, hand: Grasper, thing) -> None:
         anchor = hand.shape.offset
         point = hand.segment.body.local_to_world(anchor)
         joint = pymunk.PivotJoint(
             hand.segment.body, thing.body, anchor, thing.body.world_to_local(point)
         )
-        joint.max_force = hand.spec.strength
+        joint.max_force = hand.strength
         joint.max_bias = HOLD_BIAS
         self.space.add(joint)
         hand.joint, hand.held = joint, thing
 
-    def let_go(self, hand: Hand) -> None:
+    def let_go(self, hand: Grasper) -> None:
         if hand.joint is not None:
             self.space.remove(hand.joint)
         hand.joint, hand.held = None, None
@@ -86,7 +129,7 @@ class Hands:
             if hand.held is thing:
                 self.let_go(hand)
 
-    def drop_all_of(self, hands: list[Hand]) -> None:
+    def drop_all_of(self, hands: list[Grasper]) -> None:
         for hand in hands:
             self.let_go(hand)
             hand.closed = False

@@ -1,27 +1,92 @@
-"""Body parts: a head and arms, each a pymunk body joined to the agent's base.
+"""Body parts: what an agent has beyond its round base (a head, arm segments, graspers).
 
-Every joint is a pivot, a rotary limit and a motor (``SimpleMotor``, torque-limited): the
-action sets the motor's rate, and with rate 0 the motor holds the joint where it is. An
-agent's shapes share a collision group, so its parts never collide with each other; they
-collide with the world and with other agents, and other agents' cameras see them.
+Every part follows one protocol (``Part``): it lists its ``controls`` (each one entry of a
+continuous action and two discrete macro actions), ``build``s its bodies, shapes and
+joints onto the agent, turns this step's values of its controls into motor commands
+(``command``), and says how far from the base's centre it reaches and how fast it can
+move (for start places and for the check that no part is fast enough to cross a wall in
+one physics substep). The actuator derives the action spaces from the parts' controls.
+
+A new part is one subclass, named by its ``kind`` in the class statement, plus its spec;
+the builder finds it in ``PART_KINDS``.
+
+Parts with a body (``Link``: the head, each arm segment) sit on a pivot with a rotary
+limit and a torque-limited motor: the command sets the motor's rate, and with rate 0 the
+motor holds the joint where it is. An agent's shapes share a collision group, so its
+parts never collide with each other; they collide with the world and with other agents,
+and other agents' cameras see them.
 """
 
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import ClassVar
 
 import pymunk
 
 from flatland_ma.agents.body import AgentBody
-from flatland_ma.agents.grasp import Hand
-from flatland_ma.scenario.schema import AgentSpec, ArmSpec, HeadSpec
-from flatland_ma.world.entities import Category, CollisionType, Entity
+from flatland_ma.world.entities import Category, CollisionType, Entity, darker
+
+PART_KINDS: dict[str, type[Part]] = {}
+"""Every part class, by its kind."""
+
+
+@dataclass(frozen=True)
+class Control:
+    """One control of a part: the name of its continuous entry (a value in [-1, 1]) and
+    of the discrete macros that set it to +1 and to -1."""
+
+    name: str
+    plus: str
+    minus: str
+
+
+class Part(ABC):
+    """Base of every body part (see the module docstring).
+
+    Required: ``controls``, ``build``, ``command``, ``reach``, ``top_speed``,
+    ``half_width``; ``label`` names it in messages (e.g. ``arms[0]``).
+    """
+
+    kind: ClassVar[str]
+    controls: tuple[Control, ...] = ()
+    label: str = ""
+
+    def __init_subclass__(cls, kind: str | None = None, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if kind is not None:
+            cls.kind = kind
+            PART_KINDS[kind] = cls
+
+    @abstractmethod
+    def build(self, agent: AgentBody) -> Entity | None:
+        """Make its bodies, shapes and joints on ``agent`` (at the agent's pose); return
+        the entity to add to the world, if it has a body of its own."""
+
+    @abstractmethod
+    def command(self, values, angles: dict) -> None:
+        """Act on this step's values of its controls (each in [-1, 1], or None when a
+        discrete action left it alone); ``angles`` holds each body's angle, read once."""
+
+    @abstractmethod
+    def reach(self) -> float:
+        """How far from the base's centre it reaches."""
+
+    @abstractmethod
+    def top_speed(self, base_speed: float, base_turn: float) -> float:
+        """Its fastest speed (units per second) when the base moves at ``base_speed`` and
+        turns at ``base_turn`` (radians per second) and every joint turns at once."""
+
+    @abstractmethod
+    def half_width(self) -> float:
+        """Half its thickness: how far into a wall it may go before crossing it."""
 
 
 @dataclass(eq=False)
-class Part(Entity):
-    """A head or an arm segment of an agent."""
+class Link(Entity):
+    """The body of a head or an arm segment, joined to its parent by a motorised joint."""
 
     base: AgentBody | None = None
     parent: pymunk.Body | None = None
@@ -36,7 +101,7 @@ class Part(Entity):
     """The rate last given to its motor (pymunk's sign: parent minus child)."""
 
     @property
-    def actor(self) -> AgentBody:
+    def actor(self) -> AgentBody | None:
         return self.base
 
     @property
@@ -49,25 +114,7 @@ def agent_filter(agent_index: int) -> pymunk.ShapeFilter:
     return pymunk.ShapeFilter(group=agent_index + 1, categories=Category.AGENT)
 
 
-def attach_parts(spec: AgentSpec, base: AgentBody, agent_index: int) -> list[Part]:
-    """Build the head and arms of ``spec`` on ``base``; fill the base's part lists."""
-    for shape in base.shapes:
-        shape.filter = agent_filter(agent_index)
-    parts: list[Part] = []
-    if spec.head is not None:
-        base.head = _head(spec.head, base, agent_index)
-        parts.append(base.head)
-    for arm in spec.arms:
-        segments, hand = _arm(arm, base, agent_index, spec.radius)
-        parts += segments
-        base.joints += segments
-        if hand is not None:
-            base.hands.append(hand)
-    base.parts = parts
-    return parts
-
-
-def _joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo, hi, rate, torque):
+def _joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo, hi, torque):
     pin = pymunk.PivotJoint(parent, child, pivot)
     limit = pymunk.RotaryLimitJoint(parent, child, lo, hi)
     motor = pymunk.SimpleMotor(parent, child, 0.0)
@@ -75,83 +122,150 @@ def _joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo, hi, rate, torque)
     return pin, limit, motor
 
 
-def _head(spec: HeadSpec, base: AgentBody, agent_index: int) -> Part:
-    anchor = base.body
-    body = pymunk.Body(spec.mass, pymunk.moment_for_circle(spec.mass, 0, spec.radius))
-    body.center_of_gravity = (spec.offset, 0.0)
-    # pymunk turns a body about its centre of gravity: set the angle, then the position.
-    body.angle, body.position = anchor.angle, anchor.position
-    shape = pymunk.Circle(body, spec.radius, (spec.offset, 0.0))
-    shape.collision_type = CollisionType.AGENT
-    shape.filter = agent_filter(agent_index)
-    limit = math.radians(spec.max_angle)
-    pin, stop, motor = _joint(anchor, body, anchor.position, -limit, limit, 0, spec.max_torque)
-    return Part(
-        body=body,
-        shapes=(shape,),
-        color=_darker(base.color),
-        constraints=(pin, stop, motor),
-        owner=agent_index,
-        base=base,
-        parent=anchor,
-        motor=motor,
-        limits=(-limit, limit),
-        max_rate=math.radians(spec.turn_rate),
-        cog=(spec.offset, 0.0),
-    )
+class Head(Part, kind="head"):
+    """A small disc ``offset`` ahead of the base's centre, turning about that centre up to
+    ``max_angle`` degrees either way of the heading, at up to ``turn_rate`` degrees per
+    second."""
+
+    def __init__(
+        self,
+        radius: float = 4.0,
+        offset: float = 6.0,
+        max_angle: float = 90.0,
+        turn_rate: float = 300.0,
+        max_torque: float = 50_000.0,
+        mass: float = 0.1,
+    ):
+        self.radius, self.offset, self.mass = radius, offset, mass
+        self.limit = math.radians(max_angle)
+        self.turn_rate = math.radians(turn_rate)
+        self.max_torque = max_torque
+        self.controls = (Control("head", "head_left", "head_right"),)
+        self.label = "head"
+        self.link: Link | None = None
+
+    def build(self, agent: AgentBody) -> Link:
+        anchor = agent.body
+        body = pymunk.Body(self.mass, pymunk.moment_for_circle(self.mass, 0, self.radius))
+        body.center_of_gravity = (self.offset, 0.0)
+        # pymunk turns a body about its centre of gravity: set the angle, then the position.
+        body.angle, body.position = anchor.angle, anchor.position
+        shape = pymunk.Circle(body, self.radius, (self.offset, 0.0))
+        shape.collision_type = CollisionType.AGENT
+        shape.filter = agent_filter(agent.owner)
+        lo, hi = -self.limit, self.limit
+        self.link = Link(
+            body=body,
+            shapes=(shape,),
+            color=darker(agent.color),
+            constraints=_joint(anchor, body, anchor.position, lo, hi, self.max_torque),
+            owner=agent.owner,
+            base=agent,
+            parent=anchor,
+            limits=(lo, hi),
+            max_rate=self.turn_rate,
+            cog=(self.offset, 0.0),
+        )
+        self.link.motor = self.link.constraints[2]
+        agent.head = self.link
+        agent.links.append(self.link)
+        return self.link
+
+    def command(self, values, angles: dict) -> None:
+        (value,) = values
+        self.link.base.set_rate(self.link, 0.0 if value is None else value, angles)
+
+    def reach(self) -> float:
+        return self.offset + self.radius
+
+    def top_speed(self, base_speed: float, base_turn: float) -> float:
+        return base_speed + (base_turn + self.turn_rate) * self.reach()
+
+    def half_width(self) -> float:
+        return self.radius
 
 
-def _arm(arm: ArmSpec, base: AgentBody, agent_index: int, radius: float):
-    mount = math.radians(arm.mount)
-    parent = base.body
-    heading = parent.angle + mount
-    joint_point = parent.local_to_world((radius * math.cos(mount), radius * math.sin(mount)))
-    segments = []
-    for k, seg in enumerate(arm.segments):
-        verts = [
-            (0.0, -seg.width / 2),
-            (seg.length, -seg.width / 2),
-            (seg.length, seg.width / 2),
-            (0.0, seg.width / 2),
-        ]
-        body = pymunk.Body(seg.mass, pymunk.moment_for_poly(seg.mass, verts))
-        body.center_of_gravity = (seg.length / 2, 0.0)
-        body.angle, body.position = heading, joint_point
+class ArmSegment(Part, kind="arm_segment"):
+    """One segment of an arm: a bar ``length`` long and ``width`` thick on a motorised
+    joint, at the base's rim (``mount`` degrees from the heading) for the first segment,
+    at the tip of the ``previous`` one otherwise; its joint turns between ``min_angle`` and
+    ``max_angle`` degrees from the previous segment (or the mount direction)."""
+
+    def __init__(
+        self,
+        name: str,
+        label: str,
+        base_radius: float,
+        previous: ArmSegment | None = None,
+        mount: float = 0.0,
+        length: float = 16.0,
+        width: float = 6.0,
+        min_angle: float = -90.0,
+        max_angle: float = 90.0,
+        mass: float = 0.2,
+        joint_rate: float = 180.0,
+        max_torque: float = 50_000.0,
+    ):
+        self.previous, self.base_radius = previous, base_radius
+        self.mount = math.radians(mount)
+        self.length, self.width, self.mass = length, width, mass
+        rest = self.mount if previous is None else 0.0
+        self.limits = (rest + math.radians(min_angle), rest + math.radians(max_angle))
+        self.joint_rate = math.radians(joint_rate)
+        self.max_torque = max_torque
+        self.depth = 1 if previous is None else previous.depth + 1
+        """How many joints lie between it and the base, its own included."""
+        self.controls = (Control(name, f"{name}_left", f"{name}_right"),)
+        self.label = label
+        self.link: Link | None = None
+
+    def build(self, agent: AgentBody) -> Link:
+        if self.previous is None:
+            parent = agent.body
+            heading = parent.angle + self.mount
+            r = self.base_radius
+            joint = parent.local_to_world((r * math.cos(self.mount), r * math.sin(self.mount)))
+        else:
+            parent = self.previous.link.body
+            heading = parent.angle
+            joint = parent.local_to_world((self.previous.length, 0.0))
+        h = self.width / 2
+        verts = [(0.0, -h), (self.length, -h), (self.length, h), (0.0, h)]
+        body = pymunk.Body(self.mass, pymunk.moment_for_poly(self.mass, verts))
+        body.center_of_gravity = (self.length / 2, 0.0)
+        body.angle, body.position = heading, joint
         shape = pymunk.Poly(body, verts)
         shape.collision_type = CollisionType.AGENT
-        shape.filter = agent_filter(agent_index)
+        shape.filter = agent_filter(agent.owner)
         shape.friction = 0.6
-        shapes = [shape]
-        rest = mount if k == 0 else 0.0
-        lo, hi = rest + math.radians(seg.min_angle), rest + math.radians(seg.max_angle)
-        constraints = _joint(parent, body, joint_point, lo, hi, 0, arm.max_torque)
-        part = Part(
+        constraints = _joint(parent, body, joint, *self.limits, self.max_torque)
+        self.link = Link(
             body=body,
-            shapes=tuple(shapes),
-            color=_darker(base.color),
+            shapes=(shape,),
+            color=darker(agent.color),
             constraints=constraints,
-            owner=agent_index,
-            base=base,
+            owner=agent.owner,
+            base=agent,
             parent=parent,
             motor=constraints[2],
-            limits=(lo, hi),
-            max_rate=math.radians(arm.joint_rate),
-            cog=(seg.length / 2, 0.0),
+            limits=self.limits,
+            max_rate=self.joint_rate,
+            cog=(self.length / 2, 0.0),
         )
-        segments.append(part)
-        parent = body
-        joint_point = body.local_to_world((seg.length, 0.0))
-    hand = None
-    if arm.grasper is not None:
-        tip = segments[-1]
-        grip = pymunk.Circle(tip.body, arm.grasper.radius, (arm.segments[-1].length, 0.0))
-        grip.collision_type = CollisionType.GRASPER
-        grip.filter = agent_filter(agent_index)
-        grip.friction = 1.0
-        tip.shapes = (*tip.shapes, grip)
-        hand = Hand(arm.grasper, grip, tip)
-    return segments, hand
+        agent.joints.append(self.link)
+        agent.links.append(self.link)
+        return self.link
 
+    def command(self, values, angles: dict) -> None:
+        (value,) = values
+        self.link.base.set_rate(self.link, 0.0 if value is None else value, angles)
 
-def _darker(color) -> tuple[float, float, float]:
-    return tuple(0.7 * c for c in color)
+    def reach(self) -> float:
+        start = self.base_radius if self.previous is None else self.previous.reach()
+        return start + self.length
+
+    def top_speed(self, base_speed: float, base_turn: float) -> float:
+        return base_speed + (base_turn + self.joint_rate * self.depth) * self.reach()
+
+    def half_width(self) -> float:
+        return self.width / 2

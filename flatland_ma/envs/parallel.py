@@ -24,10 +24,12 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from flatland_ma.agents.actuators import Actuator
-from flatland_ma.scenario.builder import Episode, build
+from flatland_ma.build.bodies import make_parts, make_sensors
+from flatland_ma.build.builder import Episode, build
+from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.sensors.camera import Camera
+from flatland_ma.sensors.suite import observation_space
 
 RENDER_MODES = ["human", "rgb_array"]
 
@@ -52,6 +54,11 @@ class FlatlandParallelEnv(ParallelEnv):
             spec = scenario
         else:
             spec = load_scenario(scenario, **overrides)
+        check_scenario(spec)
+        self._setup(spec, render_mode)
+
+    def _setup(self, spec: ScenarioSpec, render_mode: str | None) -> None:
+        """Everything but the checks of the scenario (a copy being unpickled skips them)."""
         if render_mode is not None and render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode {render_mode!r} is not one of {RENDER_MODES}")
         self.spec = spec
@@ -59,11 +66,13 @@ class FlatlandParallelEnv(ParallelEnv):
         self.possible_agents = [f"agent_{i}" for i in range(spec.n_agents)]
         self.agents: list[str] = []
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
-        self._actuators = [Actuator(spec.agent) for _ in self.possible_agents]
-        self._cameras = [Camera(spec.agent.camera) for _ in self.possible_agents]
+        self._actuators = [
+            Actuator(spec.agent.actions, make_parts(spec.agent)) for _ in self.possible_agents
+        ]
+        self._sensors = [make_sensors(spec.agent) for _ in self.possible_agents]
         self.action_spaces = {a: act.space for a, act in zip(self.possible_agents, self._actuators)}
         self.observation_spaces = {
-            a: cam.observation_space for a, cam in zip(self.possible_agents, self._cameras)
+            a: observation_space(own) for a, own in zip(self.possible_agents, self._sensors)
         }
         self.episode: Episode | None = None
         self.num_steps = 0
@@ -120,7 +129,7 @@ class FlatlandParallelEnv(ParallelEnv):
         return observations, reward_d, terminated_d, truncated_d, infos
 
     def _start_episode(self) -> None:
-        self.episode = build(self.spec, self._np_random, self._cameras)
+        self.episode = build(self.spec, self._np_random, self._sensors)
         self.episode.sensors.observe()
         self.num_steps = 0
         self._live = list(range(len(self.possible_agents)))
@@ -231,7 +240,7 @@ class FlatlandParallelEnv(ParallelEnv):
         }
 
     def __setstate__(self, state: dict) -> None:
-        self.__init__(state["spec"], state["render_mode"])
+        self._setup(state["spec"], state["render_mode"])
         if state["rng_state"] is None:
             return
         self._np_random, _ = seeding.np_random(0)

@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import math
 
-from flatland_ma.agents.actuators import part_controls
+from flatland_ma.agents.grasp import Grasper
+from flatland_ma.build.bodies import make_parts
 from flatland_ma.policies.planner import PlannerPolicy, _descend, _mask_at, _wrap
-from flatland_ma.world.entities import Door, Obstacle
+from flatland_ma.world.entities import Obstacle
 
 SIDE_SPREAD = math.radians(70)
 """Angle between the sides that agents sharing one object take around it."""
@@ -78,16 +79,15 @@ class CarrierPolicy:
 
     def _job(self, episode):
         for door in episode.doors:
-            if isinstance(door, Door) and not door.is_open and door.spec.key is not None:
+            if not door.is_open and door.gate_key is not None:
                 for thing in _objects(episode):
-                    if thing.key == door.spec.key:
+                    if thing.key == door.gate_key:
                         return thing, _door_centre(door)
-        zones, rects = self.env.spec.zones, episode.task.zones.rects
         for thing in _objects(episode):
-            for zone, rect in zip(zones, rects):
+            for zone in episode.world.zones:
                 mine = zone.team is None or zone.team == self.team
                 if zone.accepts == thing.tag and mine and zone.delivery_reward > 0:
-                    return thing, ((rect[0] + rect[2]) / 2, (rect[1] + rect[3]) / 2)
+                    return thing, zone.centre
         return None
 
     # -- grasping and carrying ----------------------------------------------------------
@@ -116,9 +116,8 @@ class CarrierPolicy:
 
     def _shares(self, i: int) -> bool:
         team = self.env.spec.team_of(i)
-        return (team.name if team else None) == self.team and not self.env.episode.task.records[
-            i
-        ].done
+        mine = (team.name if team else None) == self.team
+        return mine and not self.env.episode.task.records[i].done
 
     # -- pushing --------------------------------------------------------------------------
 
@@ -164,13 +163,12 @@ def _carrying_arm(agent):
     """The arm it carries with: of those with a grasper, the one pointing most nearly
     ahead (without graspers, the first arm, to push with). Returns the arm, its hand's
     index among the graspers and the names of that hand's grasp and release actions."""
-    _, labels = part_controls(agent)
     graspers = [arm for arm in agent.arms if arm.grasper is not None]
     if not graspers:
         return (agent.arms[0] if agent.arms else None), None, None
     h = min(range(len(graspers)), key=lambda k: abs(graspers[k].mount))
-    prefix = "" if len(labels) == 1 else f"{labels[h]}_"
-    return graspers[h], h, (f"{prefix}grasp", f"{prefix}release")
+    (control,) = [p for p in make_parts(agent) if isinstance(p, Grasper)][h].controls
+    return graspers[h], h, (control.plus, control.minus)
 
 
 def _objects(episode) -> list[Obstacle]:

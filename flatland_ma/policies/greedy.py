@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
-from flatland_ma.policies.motion import base_action
+from flatland_ma.build.bodies import make_sensors
+from flatland_ma.policies.motion import BaseMotion
 from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.sensors.camera import Camera
 
 COLOR_TOLERANCE = 0.04
 """Largest distance in RGB space at which a recovered colour matches an item's."""
@@ -45,14 +45,15 @@ DETOUR_LENGTHS = (20.0, 40.0, 60.0, 90.0)
 
 class GreedyForager:
     def __init__(self, spec: ScenarioSpec):
-        camera = Camera(spec.agent.camera)
+        camera_spec = spec.agent.sensor_specs[0]  # it reads the first camera's image
+        camera = make_sensors(spec.agent)[0]
         self.angles = camera.angles
         self.half_fov = camera.half_fov
         self.ux, self.uy = np.cos(self.angles), np.sin(self.angles)
-        self.range = spec.agent.camera.range
-        self.linear = spec.agent.camera.falloff == "linear"
+        self.range = camera_spec.range
+        self.linear = camera_spec.falloff == "linear"
         self.discrete = spec.agent.actions == "discrete"
-        self.agent_spec = spec.agent
+        self.motion = BaseMotion(spec.agent)
         self.good = np.array([i.color for i in spec.items if i.reward > 0], np.float64)
         self.bad = np.array([i.color for i in spec.items if i.reward < 0], np.float64)
         self.neutral = np.array([i.color for i in spec.items if i.reward == 0], np.float64)
@@ -60,7 +61,7 @@ class GreedyForager:
         self.radius = spec.agent.radius
         self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
         self.step_length = spec.agent.max_speed * spec.physics.dt
-        ray_spacing = math.radians(spec.agent.camera.fov) / spec.agent.camera.rays
+        ray_spacing = math.radians(camera_spec.fov) / camera_spec.rays
         self.aim_tolerance = self.turn_step / 2 + ray_spacing
         """Facing a point this closely is enough: ray sampling can't place it better."""
         self.full_turn = math.ceil(2 * math.pi / self.turn_step)
@@ -94,7 +95,7 @@ class GreedyForager:
         forward, turn = self._decide(np.asarray(observation, np.float64))
         self._last = (forward, turn)
         self._turns = self._turns[-DITHER_TURNS:] + [np.sign(turn)]
-        return base_action(self.agent_spec, forward, turn)
+        return self.motion.action(forward, turn)
 
     # -- perception and memory --------------------------------------------------------
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from flatland_ma.policies.motion import base_action
+from flatland_ma.policies.motion import BaseMotion
 from flatland_ma.world.entities import Item
 from flatland_ma.world.navigation import UNREACHED
 
@@ -22,8 +22,6 @@ LOOKAHEAD = 3
 """Grid steps along the path to the point the agent aims at."""
 KEEP_MARGIN = 8
 """A target stays chosen unless another is this many grid steps nearer."""
-SWUNG = 0.3
-"""Radians a hinged door must be turned from shut before it counts as in the way."""
 STUCK_STEPS = 12
 """Forward steps with no progress before the agent turns away to get unstuck."""
 
@@ -34,7 +32,7 @@ class PlannerPolicy:
         self.index = env.possible_agents.index(agent)
         spec = env.spec
         self.discrete = spec.agent.actions == "discrete"
-        self.agent_spec = spec.agent
+        self.motion = BaseMotion(spec.agent)
         self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
         self.aim = self.turn_step * 0.6
         self.reset()
@@ -48,7 +46,7 @@ class PlannerPolicy:
 
     def act(self, observation=None):
         forward, turn = self._decide()
-        return base_action(self.agent_spec, forward, turn)
+        return self.motion.action(forward, turn)
 
     def _decide(self) -> tuple[float, float]:
         episode = self.env.episode
@@ -103,23 +101,16 @@ class PlannerPolicy:
         grid = episode.grid.copy()
         record = episode.task.records[self.index]
         for door in episode.doors:
-            spec = door.spec
-            if spec.kind == "hinged":
-                if abs(door.body.angle - door.closed_angle) > SWUNG:
-                    grid.block_shape(door.shapes[0])  # swung aside, it is in the way
-                continue
-            if door.is_open:
-                continue
-            if spec.switch is not None or (spec.state == "locked" and spec.key not in record.keys):
+            if door.blocks(record.keys):  # e.g. locked, or a hinged one swung aside
                 grid.block_shape(door.shapes[0])
         if not avoid:
             return grid
-        for item in _items(episode):
+        for item in episode.world.of_type(Item):
             if item.visible and item.reward < 0:
                 grid.block_shape(item.shapes[0], extra=1.0)
-        for zone, rect in zip(self.env.spec.zones, episode.task.zones.rects):
+        for zone in episode.world.zones:
             if zone.reward < 0:
-                grid.blocked |= grid.cells_in(tuple(rect))
+                grid.blocked |= grid.cells_in(zone.rect)
         return grid
 
     def _choose(self, episode, grid, from_me):
@@ -127,18 +118,17 @@ class PlannerPolicy:
         the way to one."""
         record = episode.task.records[self.index]
         wanted = []
-        for item in _items(episode):
+        for item in episode.world.of_type(Item):
             if item.visible and (item.reward > 0 or self._needed_key(episode, item, record)):
                 wanted.append((("item", item.index), item.body.position, None))
-        zones = episode.task.zones
-        for z, zone in enumerate(self.env.spec.zones):
-            visited = zones.visited[self.index][z]
-            if zone.reward > 0 and not (zone.once and visited):
-                wanted.append((("zone", z), None, tuple(zones.rects[z])))
-        switch_zones = {d.spec.switch for d in episode.doors if d.spec.switch and not d.is_open}
-        for z, zone in enumerate(self.env.spec.zones):
+        zones = episode.world.zones
+        for z, zone in enumerate(zones):
+            if zone.reward > 0 and not (zone.once and z in record.visited):
+                wanted.append((("zone", z), None, zone.rect))
+        switch_zones = {d.switch for d in episode.doors if d.switch and not d.is_open}
+        for z, zone in enumerate(zones):
             if zone.name in switch_zones:
-                wanted.append((("switch", z), None, tuple(zones.rects[z])))
+                wanted.append((("switch", z), None, zone.rect))
         best, best_d, kept = None, UNREACHED, None
         for key, point, rect in wanted:
             mask = _mask_at(grid, [grid.cell_of(*point)]) if rect is None else grid.cells_in(rect)
@@ -164,14 +154,10 @@ class PlannerPolicy:
         return best[1]
 
     def _needed_key(self, episode, item: Item, record) -> bool:
-        spec = self.env.spec.items[item.group]
-        if not spec.key or spec.name in record.keys:
+        group = item.group
+        if not group.key or group.name in record.keys:
             return False
-        return any(d.spec.key == spec.name and not d.is_open for d in episode.doors)
-
-
-def _items(episode):
-    return [e for e in episode.world.entities if isinstance(e, Item)]
+        return any(d.gate_key == group.name and not d.is_open for d in episode.doors)
 
 
 def _free_around(grid, cell, cells: int = 2) -> None:

@@ -93,7 +93,7 @@ class Renderer:
             info = task.info(i)
             label = f"{name}  " + "  ".join(f"{k}: {_label(v)}" for k, v in info.items())
             draw.text((4, top + 1), label, fill=_rgb255(episode.bodies[i].color), font=self._font)
-            image = sensors.image[sensors.slices[i]]
+            image = sensors.image[sensors.slices[sensors.per_agent[i][0]]]  # its first sensor
             colour = (np.clip(image[:, :3], 0, 1) * 255).astype(np.uint8)[None]
             depth = ((1.0 - np.clip(image[:, 3], 0, 1)) * 255).astype(np.uint8)
             depth = np.repeat(depth[None, :, None], 3, axis=2)
@@ -117,9 +117,9 @@ class Renderer:
             height = self.spec.arena.size[1]
             return ((x + self.margin) * self.scale * k, (height - y + self.margin) * self.scale * k)
 
-        for zone, rect in zip(self.spec.zones, episode.task.zones.rects):
+        for zone in episode.world.zones:
             if zone.color is not None:
-                x0, y0, x1, y1 = rect
+                x0, y0, x1, y1 = zone.rect
                 corners = [px((x0, y1)), px((x1, y0))]
                 draw.rectangle(corners, fill=(*_rgb255(zone.color), ZONE_ALPHA))
 
@@ -127,11 +127,12 @@ class Renderer:
         for i, body in enumerate(episode.bodies):
             if not body.visible:
                 continue
-            eye = episode.eyes[i].body  # the base, or the head the camera sits on
+            first = sensors.per_agent[i][0]  # its first sensor
+            eye = episode.eyes[first].body  # the base, or the head the sensor sits on
             ox, oy = eye.position
             heading = eye.angle
-            cam = sensors.cameras[i]
-            dist = sensors.distance[sensors.slices[i]]
+            cam = sensors.cameras[first]
+            dist = sensors.distance[sensors.slices[first]]
             points = [px((ox, oy))]
             for angle, d in zip(cam.angles, dist):
                 points.append(
@@ -157,7 +158,7 @@ class Renderer:
                     draw.polygon([px(p) for p in pts], fill=fill, outline=(0, 0, 0))
                     outline = _polygon_outline(pts)
                     centre = None
-                if texture is not None and texture.kind != "uniform":
+                if texture is not None and not texture.plain:
                     self._draw_texture(draw, px, texture, outline, centre)
 
         for body in episode.bodies:

@@ -109,18 +109,16 @@ def _check_openings(spec) -> None:
 
 
 def _check_fit(spec) -> None:
-    """An agent (with its parts) and every item must fit in the arena."""
+    """An agent's base and every item must fit in the arena (an agent with its parts is
+    checked when the parts are known: ``build.feasibility``)."""
     width, height = spec.arena.size
     room = min(width, height)
-    agent = spec.agent
-    reach = agent.footprint()
-    if 2 * reach >= room:
-        if 2 * agent.radius >= room:
-            path, what = ("agent", "radius"), f"agents of radius {agent.radius:g}"
-        else:
-            path = ("agent", "arms") if agent.arms else ("agent", "head")
-            what = f"agents reaching {reach:g} from their centre (with their parts)"
-        raise SpecError(path, f"{what} do not fit in the {width:g} x {height:g} arena")
+    radius = spec.agent.radius
+    if 2 * radius >= room:
+        raise SpecError(
+            ("agent", "radius"),
+            f"agents of radius {radius:g} do not fit in the {width:g} x {height:g} arena",
+        )
     for g, item in enumerate(spec.items):
         if 2 * item.radius >= room:
             raise SpecError(

@@ -1,11 +1,11 @@
 """Checks that span sections of a scenario: names that refer to each other (keys, switches,
-teams, tags), team sizes, and walls thick enough for the agents' speed."""
+teams, tags) and team sizes."""
 
 from __future__ import annotations
 
 from flatland_ma.scenario.errors import SpecError
 
-RESERVED_NAMES = ("score", "keys")
+RESERVED_NAMES = ("score", "keys", "deliveries")
 """Keys of ``infos[agent]`` that item groups may not take."""
 
 
@@ -71,10 +71,8 @@ def check_names(spec) -> None:
         )
 
 
-def check_speed_against_walls(spec) -> None:
-    """Between two contact checks a body moves one substep's travel: a part that can
-    travel farther than the wall's half thickness plus its own could pass through."""
-    substep = spec.physics.dt / spec.physics.substeps
+def wall_thicknesses(spec) -> list[tuple[tuple, float]]:
+    """Every wall thickness a scenario sets, with its key path (the arena's first)."""
     walls = [(("arena", "wall", "thickness"), spec.arena.wall.thickness)]
     for key in ("walls", "rooms", "corridors"):
         for i, piece in enumerate(getattr(spec, key)):
@@ -83,13 +81,4 @@ def check_speed_against_walls(spec) -> None:
     for gen_index, gen in enumerate(spec.layout.generators):
         if getattr(gen, "thickness", None) is not None:
             walls.append((("layout", "generators", gen_index, "thickness"), gen.thickness))
-    for path, thickness in walls:
-        for part, speed, half in spec.agent.fastest_parts():
-            travel = speed * substep
-            if thickness / 2 + half <= travel:
-                raise SpecError(
-                    path,
-                    f"walls {thickness:g} thick can be crossed by an agent's {part}, which "
-                    f"can move {travel:.3g} units per substep; use thicker walls, more "
-                    "physics substeps, or slower motors",
-                )
+    return walls

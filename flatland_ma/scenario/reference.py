@@ -43,12 +43,14 @@ SECTIONS: list[tuple[str, type[BaseModel], str]] = [
     ("texture", s.TextureSpec, ""),
     ("agent", s.AgentSpec, "The body, motor, camera and start of every agent."),
     ("agent.spawn", s.SpawnSpec, ""),
-    ("agent.camera", s.CameraSpec, ""),
+    ("agent.camera and agent.sensors[]: camera", s.CameraSpec, ""),
     ("agent.head", s.HeadSpec, ""),
     ("agent.arms[]", s.ArmSpec, ""),
     ("agent.arms[].segments[]", s.ArmSegmentSpec, ""),
     ("agent.arms[].grasper", s.GrasperSpec, ""),
     ("teams[]", s.TeamSpec, ""),
+    ("rules[]: step_reward", s.StepRewardSpec, ""),
+    ("rules[]: contact_reward", s.ContactRewardSpec, ""),
 ]
 
 INTRO = """\

@@ -14,12 +14,7 @@ from typing import Annotated
 from pydantic import Field, PrivateAttr, model_validator
 
 from flatland_ma.scenario.bounds import check_bounds
-from flatland_ma.scenario.checks import (
-    RESERVED_NAMES,
-    check_names,
-    check_speed_against_walls,
-    check_teams,
-)
+from flatland_ma.scenario.checks import RESERVED_NAMES, check_names, check_teams
 from flatland_ma.scenario.errors import ScenarioError, SpecError, located
 from flatland_ma.scenario.spec_agent import (
     AgentSpec,
@@ -39,6 +34,7 @@ from flatland_ma.scenario.spec_objects import (
     ObstacleBase,
     PolygonObstacle,
 )
+from flatland_ma.scenario.spec_rules import ContactRewardSpec, RuleSpec, StepRewardSpec
 from flatland_ma.scenario.spec_world import (
     ArenaSpec,
     CorridorSpec,
@@ -65,6 +61,9 @@ __all__ = [
     "ArenaSpec",
     "BoxObstacle",
     "CameraSpec",
+    "ContactRewardSpec",
+    "RuleSpec",
+    "StepRewardSpec",
     "CircleObstacle",
     "CorridorSpec",
     "DoorSpec",
@@ -138,6 +137,9 @@ class ScenarioSpec(Spec):
     """What every agent is: body, motor, camera, actions, start."""
     teams: tuple[TeamSpec, ...] = ()
     """Teams of agents, in agent order; their sizes add up to ``n_agents``."""
+    rules: tuple[RuleSpec, ...] = ()
+    """Rules added to the task, applied in order after what items, zones, doors and
+    deliveries do, and before the episode's ending is decided."""
 
     _origin: tuple[str, dict] = PrivateAttr(default=("<spec>", {}))
     """The file it was read from and where each key path was written (see ``locate``)."""
@@ -147,7 +149,6 @@ class ScenarioSpec(Spec):
         check_bounds(self)
         check_names(self)
         check_teams(self)
-        check_speed_against_walls(self)
         return self
 
     def __eq__(self, other) -> bool:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
@@ -28,6 +27,12 @@ MAX_RATE = 720.0
 
 
 class CameraSpec(Spec):
+    """A first-person camera: a fan of rays giving a 1-D image of colour and depth."""
+
+    type: Literal["camera"] = "camera"
+    """Selects this sensor."""
+    name: Name | None = None
+    """Its observation's key when an agent has several sensors; none: its type."""
     rays: int_range(1, 4096) = 64
     """Number of rays, i.e. the width of the 1-D image."""
     fov: Annotated[float, Field(strict=True, gt=0, le=360, allow_inf_nan=False)] = 120.0
@@ -39,6 +44,11 @@ class CameraSpec(Spec):
     mount: Literal["base", "head"] = "base"
     """Where the camera sits: on the base (it looks where the agent heads) or on the head
     (it looks where the head turns; the agent needs a ``head``)."""
+
+
+SensorSpec = CameraSpec
+"""Every sensor a file may declare (a union discriminated by ``type`` once there are
+several kinds); a new sensor adds its spec here."""
 
 
 class SpawnSpec(Spec):
@@ -142,7 +152,10 @@ class AgentSpec(Spec):
     max_torque: Annotated[float, Field(strict=True, gt=0, le=MAX_TORQUE)] = 100_000.0
     """Largest torque the agent's motor applies to reach its commanded turn rate."""
     camera: CameraSpec = CameraSpec()
-    """The first-person camera."""
+    """The first-person camera (the agent's one sensor unless ``sensors`` is given)."""
+    sensors: Annotated[tuple[SensorSpec, ...], Field(min_length=1, max_length=16)] | None = None
+    """Several sensors instead of the one ``camera``; their names (type, unless given)
+    must differ, and the observation is then a mapping from name to each sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()
@@ -150,37 +163,22 @@ class AgentSpec(Spec):
     spawn: SpawnSpec = SpawnSpec()
     """Where and how agents start."""
 
-    def footprint(self) -> float:
-        """Radius of the disc an agent with its parts needs to start in."""
-        reach = self.radius
-        if self.head is not None:
-            reach = max(reach, self.head.offset + self.head.radius)
-        for arm in self.arms:
-            tip = sum(s.length for s in arm.segments)
-            tip += arm.grasper.radius if arm.grasper is not None else 0.0
-            reach = max(reach, self.radius + tip)
-        return reach
-
-    def fastest_parts(self) -> list[tuple[str, float, float]]:
-        """(part, top speed in units per second, half thickness) for the base and each
-        part, the speed counting the base's motion and every joint turning at once."""
-        turn = math.radians(self.max_turn_rate)
-        parts = [("base", self.max_speed, self.radius)]
-        if self.head is not None:
-            reach = self.head.offset + self.head.radius
-            spin = turn + math.radians(self.head.turn_rate)
-            parts.append(("head", self.max_speed + spin * reach, self.head.radius))
-        for k, arm in enumerate(self.arms):
-            tip = self.radius + sum(s.length for s in arm.segments)
-            spin = turn + math.radians(arm.joint_rate) * len(arm.segments)
-            half = min(s.width for s in arm.segments) / 2
-            parts.append((f"arms[{k}]", self.max_speed + spin * tip, half))
-        return parts
+    @property
+    def sensor_specs(self) -> tuple[SensorSpec, ...]:
+        """The agent's sensors: ``sensors`` if given, else its ``camera``."""
+        return self.sensors if self.sensors is not None else (self.camera,)
 
     @model_validator(mode="after")
     def _parts(self):
-        if self.camera.mount == "head" and self.head is None:
-            raise ValueError("a camera mounted on the head needs a 'head'")
+        for sensor in self.sensor_specs:
+            if sensor.mount == "head" and self.head is None:
+                raise ValueError(f"a {sensor.type} mounted on the head needs a 'head'")
+        names = [sensor.name or sensor.type for sensor in self.sensor_specs]
+        for name in names:
+            if names.count(name) > 1:
+                raise ValueError(f"two sensors are called {name!r}: give them distinct names")
+        if self.sensors is not None and "camera" in self.model_fields_set:
+            raise ValueError("give cameras in 'sensors' when 'sensors' is given, not 'camera'")
         for arm in self.arms:
             for segment in arm.segments:
                 if segment.min_angle > segment.max_angle:

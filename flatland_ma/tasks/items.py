@@ -1,52 +1,50 @@
 """Items: taken on touch for their reward; keys go to the taker's hand, goals end its
-episode; taken items come back at once, after a delay, or never."""
+episode; taken items come back at once, after a delay, or never. Each agent's ``infos``
+count how many of each group it took (and, with key groups, which keys it holds)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.sensors.geometry import Geometry
+from flatland_ma.tasks.rule import Rule, Step, TaskContext
 from flatland_ma.world.entities import Item
-from flatland_ma.world.placement import PlacementError, Placer
-from flatland_ma.world.world import World
+from flatland_ma.world.placement import PlacementError
 
 
-class ItemRules:
-    def __init__(self, spec: ScenarioSpec, world: World, geometry: Geometry, placer: Placer):
-        self.specs = spec.items
-        self.world = world
-        self.geometry = geometry
-        self.placer = placer
+class ItemRule(Rule):
+    def reset(self, ctx: TaskContext) -> None:
+        self.world, self.placer = ctx.world, ctx.placer
+        self.groups, self.records = ctx.groups, ctx.records
+        self.eaten = np.zeros((len(ctx.bodies), len(ctx.groups)), np.int64)
+        self.has_keys = any(g.key for g in ctx.groups)
+        self.items = ctx.world.of_type(Item)
         self._waiting: list[Item] = []
         """Taken items due back, in the order they were taken."""
 
-    def apply(self, records, rewards: list[float], terminated: list[bool], rng, step: int) -> None:
-        for agent, item in self.world.contacts:
-            record = records[agent.owner]
+    def apply(self, step: Step) -> None:
+        for agent, item in step.log.items:
+            i = agent.owner
+            record = step.records[i]
             if not item.edible or record.done:
                 continue  # already taken this step, or by an agent whose episode ended
-            i = agent.owner
-            spec = self.specs[item.group]
-            rewards[i] += item.reward
-            record.eaten[item.group] += 1
-            if spec.key:
-                record.keys.add(spec.name)
-            if spec.terminal:
-                terminated[i] = True
+            group = item.group
+            step.rewards[i] += group.reward
+            self.eaten[i, group.index] += 1
+            if group.key:
+                record.keys.add(group.name)
+            if group.terminal:
+                step.terminated[i] = True
             self.world.withdraw(item)
-            self.geometry.update_entity(item)
-            if spec.respawn != "never":
-                delay = 0 if spec.respawn == "immediate" else spec.respawn
-                item.respawn_at = step + delay
+            if group.respawn is not None:
+                item.respawn_at = step.t + group.respawn
                 self._waiting.append(item)
         if self._waiting:
-            self._respawn(rng, step)
+            self._respawn(step.rng, step.t)
 
-    def _respawn(self, rng: np.random.Generator, step: int) -> None:
+    def _respawn(self, rng: np.random.Generator, t: int) -> None:
         waiting = []
         for item in self._waiting:
-            if item.respawn_at > step or not self._put_back(item, rng):
+            if item.respawn_at > t or not self._put_back(item, rng):
                 waiting.append(item)
         self._waiting = waiting
 
@@ -57,19 +55,23 @@ class ItemRules:
                 return False  # someone stands there: try again next step
         else:
             try:
-                x, y = self.placer.sample(rng, item.radius, self.specs[item.group].spawn)
+                x, y = self.placer.sample(rng, item.radius, item.group.spawn)
             except PlacementError:
                 return False
         self.world.move_static(item, x, y)
         self.world.restore(item)
         item.respawn_at = -1
-        self.geometry.update_entity(item)
         return True
 
     def none_left(self, group_name: str) -> bool:
         """No item of the group is out, and none is due back."""
-        for item in self.world.entities:
-            if isinstance(item, Item) and self.specs[item.group].name == group_name:
-                if item.visible or item.respawn_at >= 0:
-                    return False
+        for item in self.items:
+            if item.group.name == group_name and (item.visible or item.respawn_at >= 0):
+                return False
         return True
+
+    def info(self, agent: int, out: dict) -> None:
+        for group in self.groups:
+            out[group.name] = int(self.eaten[agent, group.index])
+        if self.has_keys:
+            out["keys"] = tuple(sorted(self.records[agent].keys))

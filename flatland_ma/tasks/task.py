@@ -1,92 +1,62 @@
-"""The task: what each step's contacts and positions mean for the agents.
+"""The task: an ordered list of rules over what each step's contacts and positions mean.
 
-Items reward (or punish) the agent that touches them, may be keys or goals, and come back
-as their scenario says; doors open to touch, to keys and to switches; zones reward, end
-episodes or move agents on entry. Each agent's record holds its episode counters, which
-``info`` reports (its ``score``, one count per item group, and the keys it holds).
+The order is fixed and documented: items, zones, doors, deliveries (the scenario's
+entities), then the scenario's own ``rules`` in file order, then the ending rule. Each
+agent's ``AgentRecord`` holds its score, its keys, the zones it visited and whether its
+episode ended; ``info`` reports the score and every rule's counters (one count per item
+group, the keys held, deliveries).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
 
 import numpy as np
 
-from flatland_ma.agents.body import AgentBody
-from flatland_ma.agents.grasp import Hands
-from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.sensors.geometry import Geometry
-from flatland_ma.tasks.deliveries import DeliveryRules
-from flatland_ma.tasks.doors import DoorRules
-from flatland_ma.tasks.items import ItemRules
-from flatland_ma.tasks.zones import ZoneRules
-from flatland_ma.world.entities import Door
-from flatland_ma.world.placement import Placer
-from flatland_ma.world.world import World
-
-
-@dataclass
-class AgentRecord:
-    """One agent's episode so far."""
-
-    eaten: np.ndarray
-    """How many items of each group it took."""
-    score: float = 0.0
-    keys: set[str] = field(default_factory=set)
-    deliveries: int = 0
-    """Deliveries credited to the agent (its team's, or everyone's)."""
-    done: bool = False
+from flatland_ma.tasks.deliveries import DeliveryRule
+from flatland_ma.tasks.doors import DoorRule
+from flatland_ma.tasks.ending import EndingRule
+from flatland_ma.tasks.items import ItemRule
+from flatland_ma.tasks.rule import AgentRecord, Rule, Step, TaskContext
+from flatland_ma.tasks.zones import ZoneRule
 
 
 class Task:
     def __init__(
         self,
-        spec: ScenarioSpec,
-        world: World,
-        geometry: Geometry,
-        bodies: list[AgentBody],
-        doors: list[Door],
-        placer: Placer,
-        rng: np.random.Generator,
-        hands: Hands,
+        ctx: TaskContext,
+        extra: Sequence[Rule] = (),
+        shared_end: bool = False,
+        end_when_eaten: str | None = None,
     ):
-        self.spec = spec
-        self.world = world
-        self.geometry = geometry
-        self.bodies = bodies
-        self.records = [AgentRecord(np.zeros(len(spec.items), np.int64)) for _ in bodies]
-        self.hands = hands
-        teams = [getattr(spec.team_of(i), "name", None) for i in range(len(bodies))]
-        self.items = ItemRules(spec, world, geometry, placer)
-        self.doors = DoorRules(world, geometry, doors)
-        self.zones = ZoneRules(spec, bodies, placer, rng, teams)
-        self.deliveries = DeliveryRules(spec, world, self.zones.rects, hands, teams)
-        self.group_names = [item.name for item in spec.items]
-        self.has_keys = any(item.key for item in spec.items)
-        self.has_deliveries = bool(self.deliveries.zones)
+        """``extra``: the scenario's own rules; the ending: see ``ending.EndingRule``."""
+        self.world, self.bodies, self.hands = ctx.world, ctx.bodies, ctx.hands
+        self.records = ctx.records
+        items = ItemRule()
+        self.rules: list[Rule] = [
+            items,
+            ZoneRule(),
+            DoorRule(),
+            DeliveryRule(),
+            *extra,
+            EndingRule(items, shared_end, end_when_eaten),
+        ]
+        for rule in self.rules:
+            rule.reset(ctx)
         self.steps = 0
 
     def evaluate(self, rng: np.random.Generator) -> tuple[list[float], list[bool]]:
         """Rewards and terminations of every agent for the step just simulated."""
         self.steps += 1
         n = len(self.bodies)
-        rewards = [0.0] * n
-        terminated = [False] * n
-        records = self.records
-        self.items.apply(records, rewards, terminated, rng, self.steps)
-        occupied = self.zones.apply(records, rewards, terminated, rng)
-        self.doors.apply(records, occupied)
-        delivered_end = self.deliveries.apply(records, rewards)
-        episode = self.spec.episode
-        ended = (
-            delivered_end
-            or (episode.shared_end and any(terminated))
-            or (episode.end_when_eaten is not None and self.items.none_left(episode.end_when_eaten))
-        )
-        for i, record in enumerate(records):
+        step = Step(self.world.log, self.records, [0.0] * n, [False] * n, rng, self.steps)
+        for rule in self.rules:
+            rule.apply(step)
+        rewards, terminated = step.rewards, step.terminated
+        for i, record in enumerate(self.records):
             if record.done:
                 continue
-            if ended:
+            if step.end_all:
                 terminated[i] = True
             if rewards[i]:
                 record.score += rewards[i]
@@ -95,23 +65,21 @@ class Task:
                 self._retire(self.bodies[i])
         return rewards, terminated
 
-    def _retire(self, body: AgentBody) -> None:
+    def _retire(self, body) -> None:
         """An agent whose episode ended leaves the world, parts and all."""
         self.hands.drop_all_of(body.hands)
-        for entity in (*body.parts, body):
+        for entity in (*body.links, body):
             self.world.retire(entity)
-            self.geometry.update_visibility(entity)
 
     def info(self, agent_index: int) -> dict:
-        """The agent's episode counters: ``score``, one count per item group, and (in
-        scenarios with keys) the sorted names of the keys it holds, (in scenarios with
-        deliveries) how many deliveries it was credited with."""
-        record = self.records[agent_index]
-        info = {"score": float(record.score)}
-        for g, name in enumerate(self.group_names):
-            info[name] = int(record.eaten[g])
-        if self.has_keys:
-            info["keys"] = tuple(sorted(record.keys))
-        if self.has_deliveries:
-            info["deliveries"] = record.deliveries
+        """The agent's episode counters: ``score``, then each rule's (one count per item
+        group; in scenarios with keys, the sorted names of the keys it holds; in scenarios
+        with deliveries, how many it was credited with)."""
+        info = {"score": float(self.records[agent_index].score)}
+        for rule in self.rules:
+            rule.info(agent_index, info)
         return info
+
+
+def new_records(n_agents: int) -> list[AgentRecord]:
+    return [AgentRecord() for _ in range(n_agents)]

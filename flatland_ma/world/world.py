@@ -1,37 +1,44 @@
-"""The physical world: one pymunk space, its entities, stepping and the contact log."""
+"""The physical world: one pymunk space, its entities and zones, stepping, the contact
+log, and which entities changed since the sensors last looked."""
 
 from __future__ import annotations
 
 import pymunk
 
-from flatland_ma.scenario.schema import PhysicsSpec
-from flatland_ma.world.entities import Category, CollisionType, Entity
+from flatland_ma.world.contacts import ContactLog
+from flatland_ma.world.entities import Category, CollisionType, Entity, Zone
 
 _SOLID_OR_ITEM = pymunk.ShapeFilter(mask=Category.EVERYTHING)
 _AGENT_TYPES = (CollisionType.AGENT, CollisionType.GRASPER)
 
 
 class World:
-    """Owns the ``pymunk.Space``. Collision callbacks only record contacts; the task
-    decides what they mean."""
+    """Owns the ``pymunk.Space``. Collision callbacks only record contacts in ``log``;
+    rules decide what they mean. Moving, hiding or showing a fixed entity goes through
+    the world, which notes it in ``changed`` for the sensors."""
 
-    def __init__(self, physics: PhysicsSpec, size: tuple[float, float]):
+    def __init__(
+        self, size: tuple[float, float], dt: float, substeps: int = 1, iterations: int = 10
+    ):
         self.space = pymunk.Space()
-        self.space.iterations = physics.iterations
+        self.space.iterations = iterations
         self.size = size
-        self.dt = physics.dt
-        self.substeps = physics.substeps
-        self.substep_dt = physics.dt / physics.substeps
+        self.dt = dt
+        self.substeps = substeps
+        self.substep_dt = dt / substeps
         self.entities: list[Entity] = []
         self.entity_of_shape: dict[pymunk.Shape, Entity] = {}
-        self.contacts: list[tuple[Entity, Entity]] = []
-        """(agent entity, item entity) pairs that began touching during the last step."""
-        self.door_touches: list[tuple[Entity, Entity]] = []
-        """(agent entity, door entity) pairs that began touching during the last step."""
-        self.key_touches: list[tuple[Entity, Entity]] = []
-        """(object, door) pairs that began touching during the last step."""
-        self.hand_of_shape: dict = {}
-        """Each grasper's shape and its hand (``agents.grasp.Hand``)."""
+        self.agents: list[Entity] = []
+        """Agents' bases, in agent order."""
+        self.zones: list[Zone] = []
+        self.tagged: list[Entity] = []
+        """Objects with a delivery tag."""
+        self.log = ContactLog()
+        self.changed: list[Entity] = []
+        """Fixed entities moved, hidden or shown since the sensors last looked."""
+        self.grips: dict[pymunk.Shape, list[Entity]] = {}
+        """For each grasper's shape, the graspable objects it touches, first touched first."""
+        self._inside: list[list[bool]] = []
         on = self.space.on_collision
         on(CollisionType.AGENT, CollisionType.ITEM, begin=self._on_item)
         on(CollisionType.GRASPER, CollisionType.ITEM, begin=self._on_item)
@@ -46,6 +53,8 @@ class World:
         for kind in (CollisionType.AGENT, CollisionType.GRASPER):
             on(kind, None, begin=self._on_agent_contact, separate=self._on_agent_release)
 
+    # -- contents -----------------------------------------------------------------------
+
     def add(self, entity: Entity) -> Entity:
         entity.index = len(self.entities)
         self.entities.append(entity)
@@ -54,7 +63,20 @@ class World:
         if entity.body is not self.space.static_body:
             self.space.add(entity.body)
         self.space.add(*entity.aux_bodies, *entity.shapes, *entity.constraints)
+        if entity.actor is entity:
+            self.agents.append(entity)
+        if entity.tag is not None:
+            self.tagged.append(entity)
         return entity
+
+    def add_zone(self, zone: Zone) -> Zone:
+        zone.index = len(self.zones)
+        self.zones.append(zone)
+        return zone
+
+    def of_type(self, kind: type) -> list:
+        """The entities of one class (for rules and policies setting up, not per step)."""
+        return [e for e in self.entities if isinstance(e, kind)]
 
     def withdraw(self, entity: Entity) -> None:
         """Take an entity's shapes out of the physics (it stays listed, hidden)."""
@@ -62,6 +84,7 @@ class World:
         present = [s for s in entity.shapes if s.space is not None]
         if present:
             self.space.remove(*present)
+        self.changed.append(entity)
 
     def restore(self, entity: Entity) -> None:
         """Put a withdrawn entity's shapes back."""
@@ -69,6 +92,7 @@ class World:
         absent = [s for s in entity.shapes if s.space is None]
         if absent:
             self.space.add(*absent)
+        self.changed.append(entity)
 
     def retire(self, entity: Entity) -> None:
         """Take an entity out of the physics for good (e.g. an agent whose episode ended)."""
@@ -79,45 +103,117 @@ class World:
         if parts:
             self.space.remove(*parts)
 
+    def move_static(self, entity: Entity, x: float, y: float) -> None:
+        """Move a static or kinematic entity (e.g. a respawned item)."""
+        entity.body.position = (x, y)
+        self.space.reindex_shapes_for_body(entity.body)
+        self.changed.append(entity)
+
+    def place(self, entity: Entity, x: float, y: float, angle: float) -> None:
+        """Put a dynamic entity at (x, y) turned by ``angle``, at rest."""
+        body = entity.body
+        body.position, body.angle = (x, y), angle
+        body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
+        self.space.reindex_shapes_for_body(body)
+
+    def take_changed(self) -> list[Entity]:
+        """The entities changed since the last call, each once."""
+        changed = list(dict.fromkeys(self.changed))
+        self.changed.clear()
+        return changed
+
+    # -- questions ----------------------------------------------------------------------
+
+    def is_free(self, x: float, y: float, radius: float) -> bool:
+        """True if a disc of ``radius`` at (x, y) lies in the arena and touches nothing."""
+        width, height = self.size
+        if not (radius <= x <= width - radius and radius <= y <= height - radius):
+            return False
+        return not self.space.point_query((x, y), radius, _SOLID_OR_ITEM)
+
+    def is_clear(self, entity: Entity) -> bool:
+        """Whether nothing solid overlaps the entity's shapes (e.g. a doorway)."""
+        for shape in entity.shapes:
+            shape.cache_bb()
+            if any(not hit.shape.sensor for hit in self.space.shape_query(shape)):
+                return False
+        return True
+
+    # -- stepping -----------------------------------------------------------------------
+
     def step(self) -> None:
-        """Advance one environment step: ``substeps`` pymunk steps."""
-        self.contacts.clear()
-        self.door_touches.clear()
-        self.key_touches.clear()
+        """Advance one environment step (``substeps`` pymunk steps) and fill the log."""
+        self.log.clear()
+        if self.zones:
+            self._inside = self._occupancy()
         step, dt = self.space.step, self.substep_dt
         for _ in range(self.substeps):
             step(dt)
+        if self.zones:
+            self._log_zones()
+
+    def _occupancy(self) -> list[list[bool]]:
+        """For each agent, whether its centre lies in each zone (plain Python: a handful
+        of agents and zones is faster so than through numpy); retired agents lie nowhere."""
+        rects = [z.rect for z in self.zones]
+        inside = []
+        for agent in self.agents:
+            if not agent.visible:
+                inside.append([False] * len(rects))
+                continue
+            x, y = agent.body.position
+            inside.append([x0 <= x <= x1 and y0 <= y <= y1 for x0, y0, x1, y1 in rects])
+        return inside
+
+    def _log_zones(self) -> None:
+        log, zones, before = self.log, self.zones, self._inside
+        now = self._occupancy()
+        for a, row in enumerate(now):
+            for z, here in enumerate(row):
+                if here and not before[a][z]:
+                    log.entered.append((self.agents[a], zones[z]))
+        for z, zone in enumerate(zones):
+            if zone.name is not None and any(row[z] for row in now):
+                log.occupied.add(zone.name)
+        for thing in self.tagged:
+            x, y = thing.body.position
+            for zone in zones:
+                if zone.accepts == thing.tag and zone.contains(x, y):
+                    log.deliveries.append((thing, zone))
+                    break
+
+    # -- collision callbacks (record only) ----------------------------------------------
 
     def _on_item(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         agent_shape, item_shape = arbiter.shapes
         agent = self.entity_of_shape[agent_shape].actor
-        self.contacts.append((agent, self.entity_of_shape[item_shape]))
+        self.log.items.append((agent, self.entity_of_shape[item_shape]))
 
     def _on_door(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         agent_shape, door_shape = arbiter.shapes
         agent = self.entity_of_shape[agent_shape].actor
-        self.door_touches.append((agent, self.entity_of_shape[door_shape]))
+        self.log.doors.append((agent, self.entity_of_shape[door_shape]))
 
     def _on_key(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         thing, door = (self.entity_of_shape[s] for s in arbiter.shapes)
         if thing.key is not None:
-            self.key_touches.append((thing, door))
+            self.log.keys.append((thing, door))
 
     def _on_grip(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         grip, other = arbiter.shapes
         thing = self.entity_of_shape[other]
-        hand = self.hand_of_shape.get(grip)
-        if hand is not None and thing.graspable and thing not in hand.touching:
-            hand.touching.append(thing)
+        touching = self.grips.get(grip)
+        if touching is not None and getattr(thing, "graspable", False) and thing not in touching:
+            touching.append(thing)
 
     def _on_ungrip(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         grip, other = arbiter.shapes
         if grip.collision_type != CollisionType.GRASPER:
             grip, other = other, grip
-        hand = self.hand_of_shape.get(grip)
+        touching = self.grips.get(grip)
         thing = self.entity_of_shape.get(other)
-        if hand is not None and thing in hand.touching:
-            hand.touching.remove(thing)
+        if touching is not None and thing in touching:
+            touching.remove(thing)
 
     def _on_agent_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         self._count_contact(arbiter, +1)
@@ -133,15 +229,3 @@ class World:
             agent_shape, other = other, agent_shape
         if not other.sensor:
             self.entity_of_shape[agent_shape].actor.touching += change
-
-    def is_free(self, x: float, y: float, radius: float) -> bool:
-        """True if a disc of ``radius`` at (x, y) lies in the arena and touches nothing."""
-        width, height = self.size
-        if not (radius <= x <= width - radius and radius <= y <= height - radius):
-            return False
-        return not self.space.point_query((x, y), radius, _SOLID_OR_ITEM)
-
-    def move_static(self, entity: Entity, x: float, y: float) -> None:
-        """Move a static or kinematic entity (e.g. a respawned item)."""
-        entity.body.position = (x, y)
-        self.space.reindex_shapes_for_body(entity.body)

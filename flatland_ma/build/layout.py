@@ -2,8 +2,8 @@
 
 Explicit walls, rooms and corridors become wall pieces (boxes along a centre line); room
 openings and corridor ends carve gaps out of every axis-parallel wall they cross; pieces
-that line up are merged. The ``grid_rooms`` and ``maze`` generators add their own pieces,
-drawn from a random generator. ``builder.py`` turns the pieces into pymunk bodies.
+that line up are merged. The ``grid_rooms`` and ``maze`` generators (``generators.py``) add their own pieces, drawn
+from a random generator. ``ground.py`` turns the pieces into pymunk bodies.
 """
 
 from __future__ import annotations
@@ -12,14 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from flatland_ma.scenario.schema import (
-    DoorSpec,
-    GridRoomsSpec,
-    MazeSpec,
-    RoomSpec,
-    ScenarioSpec,
-    TextureSpec,
-)
+from flatland_ma.scenario.schema import DoorSpec, RoomSpec, ScenarioSpec, TextureSpec
 from flatland_ma.scenario.types import Spec
 
 Point = tuple[float, float]
@@ -74,7 +67,7 @@ class Layout:
     doors: list[DoorPiece]
 
 
-def _style(part, spec: ScenarioSpec) -> tuple[float, RGB, TextureSpec | None]:
+def style(part, spec: ScenarioSpec) -> tuple[float, RGB, TextureSpec | None]:
     wall = spec.arena.wall
     return (
         part.thickness if part.thickness is not None else wall.thickness,
@@ -89,11 +82,11 @@ def explicit_layout(spec: ScenarioSpec) -> Layout:
     doors: list[DoorPiece] = []
     carves: list[Carve] = []
     for i, wall in enumerate(spec.walls):
-        t, color, texture = _style(wall, spec)
+        t, color, texture = style(wall, spec)
         start, end = _extend(wall.start, wall.end, t / 2)
         walls.append(WallPiece(start, end, t, color, texture, ("walls", i)))
     for r, room in enumerate(spec.rooms):
-        t, color, texture = _style(room, spec)
+        t, color, texture = style(room, spec)
         walls += _room_walls(room, t, color, texture, ("rooms", r))
         for o, opening in enumerate(room.openings):
             start, end, gap = _opening(room, opening, t)
@@ -103,7 +96,7 @@ def explicit_layout(spec: ScenarioSpec) -> Layout:
                 path = ("rooms", r, "openings", o, "door")
                 doors.append(DoorPiece(start, end, door_t, opening.door, path))
     for c, corridor in enumerate(spec.corridors):
-        t, color, texture = _style(corridor, spec)
+        t, color, texture = style(corridor, spec)
         walls += _corridor_walls(corridor, t, color, texture, ("corridors", c))
         carves.append(_corridor_carve(corridor, t))
     for d, door in enumerate(spec.doors):
@@ -241,107 +234,12 @@ def _texture_key(texture: Spec | None):
     return None if texture is None else texture.model_dump_json()
 
 
-def grid_rooms(
-    gen: GridRoomsSpec, spec: ScenarioSpec, rng: np.random.Generator, index: int
-) -> Layout:
-    """Inner walls of a rows x cols grid of rooms; one random opening per shared wall."""
-    width, height = spec.arena.size
-    t, color, texture = _style(gen, spec)
-    path = ("layout", "generators", index)
-    walls, doors = [], []
-    cw, ch = width / gen.cols, height / gen.rows
-    door_spec = None
-    if gen.doors != "none":
-        door_spec = DoorSpec(kind="hinged" if gen.doors == "hinged" else "sliding")
-    # Vertical walls between columns, one piece per row; then horizontal ones.
-    for axis, n_lines, n_cells, step, cell in (
-        (1, gen.cols, gen.rows, cw, ch),
-        (0, gen.rows, gen.cols, ch, cw),
-    ):
-        for line in range(1, n_lines):
-            c = line * step
-            for k in range(n_cells):
-                lo, hi = k * cell, (k + 1) * cell
-                margin = t + gen.door_width / 2
-                centre = (
-                    float(rng.uniform(lo + margin, hi - margin))
-                    if hi - lo > 2 * margin
-                    else (lo + hi) / 2
-                )
-                gap = (centre - gen.door_width / 2, centre + gen.door_width / 2)
-                for a, b in ((lo - t / 2, gap[0]), (gap[1], hi + t / 2)):
-                    walls.append(_axis_piece(axis, c, a, b, t, color, texture, path))
-                if door_spec is not None:
-                    start = _axis_point(axis, c, gap[0])
-                    end = _axis_point(axis, c, gap[1])
-                    doors.append(DoorPiece(start, end, t, door_spec, path))
-    return Layout(merge(walls), doors)
-
-
-def maze(gen: MazeSpec, spec: ScenarioSpec, rng: np.random.Generator, index: int) -> Layout:
-    """Inner walls of a maze over the arena: a random depth-first spanning tree of the
-    cells, then a fraction ``loops`` of the walls left standing removed."""
-    width, height = spec.arena.size
-    t, color, texture = _style(gen, spec)
-    path = ("layout", "generators", index)
-    cols, rows = max(1, round(width / gen.cell)), max(1, round(height / gen.cell))
-    cw, ch = width / cols, height / rows
-    # open_east[r, c]: no wall between (r, c) and (r, c + 1); open_north likewise upwards.
-    open_east = np.zeros((rows, cols), bool)
-    open_north = np.zeros((rows, cols), bool)
-    visited = np.zeros((rows, cols), bool)
-    stack = [(int(rng.integers(rows)), int(rng.integers(cols)))]
-    visited[stack[0]] = True
-    while stack:
-        r, c = stack[-1]
-        options = [
-            (dr, dc)
-            for dr, dc in ((0, 1), (0, -1), (1, 0), (-1, 0))
-            if 0 <= r + dr < rows and 0 <= c + dc < cols and not visited[r + dr, c + dc]
-        ]
-        if not options:
-            stack.pop()
-            continue
-        dr, dc = options[int(rng.integers(len(options)))]
-        if dc == 1:
-            open_east[r, c] = True
-        elif dc == -1:
-            open_east[r, c - 1] = True
-        elif dr == 1:
-            open_north[r, c] = True
-        else:
-            open_north[r - 1, c] = True
-        visited[r + dr, c + dc] = True
-        stack.append((r + dr, c + dc))
-    if gen.loops > 0:
-        for grid, limit in ((open_east, (rows, cols - 1)), (open_north, (rows - 1, cols))):
-            closed = [(r, c) for r in range(limit[0]) for c in range(limit[1]) if not grid[r, c]]
-            for k in rng.permutation(len(closed))[: int(round(gen.loops * len(closed)))]:
-                grid[closed[k]] = True
-    walls = []
-    for r in range(rows):
-        for c in range(cols - 1):
-            if not open_east[r, c]:
-                x = (c + 1) * cw
-                walls.append(
-                    _axis_piece(1, x, r * ch - t / 2, (r + 1) * ch + t / 2, t, color, texture, path)
-                )
-    for r in range(rows - 1):
-        for c in range(cols):
-            if not open_north[r, c]:
-                y = (r + 1) * ch
-                walls.append(
-                    _axis_piece(0, y, c * cw - t / 2, (c + 1) * cw + t / 2, t, color, texture, path)
-                )
-    return Layout(merge(walls), [])
-
-
-def _axis_point(axis: int, line: float, along: float) -> Point:
+def axis_point(axis: int, line: float, along: float) -> Point:
     """A point on an axis-parallel line: ``axis`` 0 runs along x at y = line."""
     return (along, line) if axis == 0 else (line, along)
 
 
-def _axis_piece(axis, line, a, b, t, color, texture, path) -> WallPiece:
+def axis_piece(axis, line, a, b, t, color, texture, path) -> WallPiece:
     return WallPiece(
-        _axis_point(axis, line, a), _axis_point(axis, line, b), t, color, texture, path
+        axis_point(axis, line, a), axis_point(axis, line, b), t, color, texture, path
     )

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from flatland_ma.build.bodies import footprint, make_parts
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
 from flatland_ma.scenario.spec_agent import SpawnSpec
 from flatland_ma.world.placement import Placer
@@ -116,7 +117,7 @@ def _where(draw) -> str:
 
 
 def _draws(spec, placer: Placer) -> list[_Draw]:
-    reach = spec.agent.footprint()
+    reach = footprint(spec.agent, make_parts(spec.agent))
     draws = [
         _Draw(
             "agent",

@@ -137,21 +137,21 @@ def _zone_cells(grid: NavGrid, zone) -> np.ndarray:
 
 def _gate(spec, grid: NavGrid, door: Door) -> Gate | None:
     """The door as a gate, or None if agents pass it anyway."""
-    d = door.spec
-    if d.kind != "sliding" or d.state == "open" or (d.switch is None and d.state == "closed"):
+    if not door.needs_opener:
         return None
     openers = []
-    if d.switch is not None:
+    key = door.gate_key
+    if door.switch is not None:
         for z, zone in enumerate(spec.zones):
-            if zone.name == d.switch:
+            if zone.name == door.switch:
                 openers.append(_zone_opener(grid, z, zone))
-    elif d.key is not None:
+    elif key is not None:
         for g, item in enumerate(spec.items):
-            if item.key and item.name == d.key and item.n_items > 0:
+            if item.key and item.name == key and item.n_items > 0:
                 openers.append(_item_opener(grid, g, item))
-    if d.key is not None:
+    if key is not None:
         for o, obstacle in enumerate(spec.obstacles):
-            if obstacle.key == d.key:
+            if obstacle.key == key:
                 x, y = obstacle.position
                 r = obstacle.bounding_radius() + grid.clearance + grid.cell
                 cells = grid.cells_in((x - r, y - r, x + r, y + r))

@@ -1,4 +1,8 @@
-"""Scenario pieces made physical: pymunk bodies and shapes wrapped in entities."""
+"""Scenario pieces made physical: pymunk bodies and shapes wrapped in entities, and zones.
+
+The one place where the file format's looks, doors, obstacles, items and zones become the
+world's runtime values.
+"""
 
 from __future__ import annotations
 
@@ -6,17 +10,23 @@ import math
 
 import pymunk
 
-from flatland_ma.scenario.layout import DoorPiece, WallPiece
-from flatland_ma.scenario.schema import ArenaSpec, ItemSpec
+from flatland_ma.build.layout import DoorPiece, WallPiece
+from flatland_ma.scenario.schema import ArenaSpec, ItemSpec, TextureSpec, ZoneSpec
 from flatland_ma.world.entities import (
     Category,
     CollisionType,
     Door,
+    HingedDoor,
     Item,
+    ItemGroup,
     Obstacle,
+    Rect,
+    SlidingDoor,
     Wall,
+    Zone,
     shape_filter,
 )
+from flatland_ma.world.looks import Texture
 
 FLOOR_GRAVITY = 1000.0
 """Units per second squared: turns ``floor_friction`` into a sliding resistance force."""
@@ -37,7 +47,14 @@ def make_arena_walls(arena: ArenaSpec) -> Wall:
         [(w, 0), (w + t, 0), (w + t, h), (w, h)],
     ]
     shapes = tuple(_wall_shape(pymunk.Poly(body, corners)) for corners in boxes)
-    return Wall(body=body, shapes=shapes, color=arena.wall.color, texture=arena.wall.texture)
+    return Wall(body=body, shapes=shapes, color=arena.wall.color, texture=look(arena.wall.texture))
+
+
+def look(texture: TextureSpec | None) -> Texture | None:
+    """A texture spec as the world's runtime texture."""
+    if texture is None:
+        return None
+    return Texture(texture.kind, texture.colors, texture.period, texture.duty, texture.seed)
 
 
 def _wall_shape(shape: pymunk.Shape) -> pymunk.Shape:
@@ -79,47 +96,77 @@ def make_walls(
         shapes = tuple(_wall_shape(pymunk.Poly(static_body, wall_corners(p))) for p in group)
         paths.update((shape, p.path) for shape, p in zip(shapes, group))
         walls.append(
-            Wall(body=static_body, shapes=shapes, color=group[0].color, texture=group[0].texture)
+            Wall(
+                body=static_body,
+                shapes=shapes,
+                color=group[0].color,
+                texture=look(group[0].texture),
+            )
         )
     return walls, paths
 
 
-def make_door(piece: DoorPiece, space: pymunk.Space) -> Door:
+def _hinged(piece: DoorPiece, space: pymunk.Space) -> Door:
     spec = piece.spec
     position, angle, verts = _panel(piece.start, piece.end, piece.thickness)
-    if spec.kind == "hinged":
-        # A little short of the gap, so it swings free of the walls at both ends.
-        length = verts[1][0] - 1.0
-        h = piece.thickness * 0.4
-        verts = [(0.5, -h), (length, -h), (length, h), (0.5, h)]
-        body = pymunk.Body(spec.mass, pymunk.moment_for_poly(spec.mass, verts))
-        body.position, body.angle = position, angle
-        hinge = pymunk.PivotJoint(space.static_body, body, position)
-        swing = math.radians(spec.swing)
-        limit = pymunk.RotaryLimitJoint(space.static_body, body, angle - swing, angle + swing)
-        friction = pymunk.GearJoint(space.static_body, body, 0.0, 1.0)
-        friction.max_bias = 0.0
-        friction.max_force = HINGE_FRICTION
-        constraints = (hinge, limit, friction)
-    else:
-        body = pymunk.Body(body_type=pymunk.Body.STATIC)
-        body.position, body.angle = position, angle
-        constraints = ()
+    # A little short of the gap, so it swings free of the walls at both ends.
+    length = verts[1][0] - 1.0
+    h = piece.thickness * 0.4
+    verts = [(0.5, -h), (length, -h), (length, h), (0.5, h)]
+    body = pymunk.Body(spec.mass, pymunk.moment_for_poly(spec.mass, verts))
+    body.position, body.angle = position, angle
+    hinge = pymunk.PivotJoint(space.static_body, body, position)
+    swing = math.radians(spec.swing)
+    limit = pymunk.RotaryLimitJoint(space.static_body, body, angle - swing, angle + swing)
+    friction = pymunk.GearJoint(space.static_body, body, 0.0, 1.0)
+    friction.max_bias = 0.0
+    friction.max_force = HINGE_FRICTION
+    return HingedDoor(
+        **_door_parts(piece, body, verts, angle),
+        constraints=(hinge, limit, friction),
+        swing=swing,
+    )
+
+
+def _sliding(piece: DoorPiece, space: pymunk.Space) -> Door:
+    spec = piece.spec
+    position, angle, verts = _panel(piece.start, piece.end, piece.thickness)
+    body = pymunk.Body(body_type=pymunk.Body.STATIC)
+    body.position, body.angle = position, angle
+    return SlidingDoor(
+        **_door_parts(piece, body, verts, angle),
+        locked=spec.state == "locked",
+        opened=spec.state == "open",
+        key_name=spec.key,
+        switch_zone=spec.switch,
+        latching=spec.latch,
+    )
+
+
+def _door_parts(piece: DoorPiece, body: pymunk.Body, verts, angle: float) -> dict:
     shape = pymunk.Poly(body, verts)
     shape.collision_type = CollisionType.DOOR
     # Doors pass through walls: a hinged panel must swing free of the wall it sits in.
     shape.filter = shape_filter(Category.DOOR, ignores=Category.WALL)
     shape.friction = WALL_FRICTION
-    return Door(
+    spec = piece.spec
+    return dict(
         body=body,
         shapes=(shape,),
         color=spec.color,
-        texture=spec.texture,
-        constraints=constraints,
-        spec=spec,
+        texture=look(spec.texture),
+        name=spec.name,
         path=piece.path,
         closed_angle=angle,
     )
+
+
+DOOR_KINDS = {"sliding": _sliding, "hinged": _hinged}
+"""How each kind of door (``DoorSpec.kind``) is made."""
+
+
+def make_door(piece: DoorPiece, space: pymunk.Space) -> Door:
+    return DOOR_KINDS[piece.spec.kind](piece, space)
 
 
 def make_obstacle(spec, space: pymunk.Space) -> Obstacle:
@@ -152,16 +199,31 @@ def make_obstacle(spec, space: pymunk.Space) -> Obstacle:
         body=body,
         shapes=(shape,),
         color=spec.color,
-        texture=spec.texture,
+        texture=look(spec.texture),
         constraints=constraints,
-        tag=spec.tag,
+        delivery_tag=spec.tag,
         graspable=spec.graspable,
-        key=spec.key,
+        key_name=spec.key,
         home=(*spec.position, math.radians(spec.angle)),
     )
 
 
-def make_item(spec: ItemSpec, group: int, x: float, y: float, home=None) -> Item:
+def item_group(spec: ItemSpec, index: int) -> ItemGroup:
+    """What the items of ``spec`` (the scenario's ``items[index]``) do."""
+    respawn = {"immediate": 0, "never": None}.get(spec.respawn, spec.respawn)  # type: ignore[arg-type]
+    return ItemGroup(
+        name=spec.name,
+        index=index,
+        reward=spec.reward,
+        radius=spec.radius,
+        respawn=respawn,
+        spawn=spec.spawn,
+        terminal=spec.terminal,
+        key=spec.key,
+    )
+
+
+def make_item(spec: ItemSpec, group: ItemGroup, x: float, y: float, home=None) -> Item:
     body = pymunk.Body(body_type=pymunk.Body.STATIC)
     body.position = (x, y)
     shape = pymunk.Circle(body, spec.radius)
@@ -172,9 +234,25 @@ def make_item(spec: ItemSpec, group: int, x: float, y: float, home=None) -> Item
         body=body,
         shapes=(shape,),
         color=spec.color,
-        texture=spec.texture,
+        texture=look(spec.texture),
         group=group,
-        reward=spec.reward,
-        radius=spec.radius,
         home=home,
+    )
+
+
+def make_zone(spec: ZoneSpec, rect: Rect) -> Zone:
+    """A zone of ``spec`` over ``rect`` (its own, or one drawn at random)."""
+    return Zone(
+        rect=tuple(float(v) for v in rect),  # type: ignore[arg-type]
+        name=spec.name,
+        reward=spec.reward,
+        once=spec.once,
+        terminal=spec.terminal,
+        teleport=spec.teleport,
+        color=spec.color,
+        team=spec.team,
+        accepts=spec.accepts,
+        delivery_reward=spec.delivery_reward,
+        zero_sum=spec.zero_sum,
+        end_on_delivery=spec.end_on_delivery,
     )

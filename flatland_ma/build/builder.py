@@ -1,0 +1,200 @@
+"""Building an episode from a validated scenario and the env's random generator.
+
+``build`` is the only place where scenario specs become a world. The layout is drawn
+first (the file's walls, rooms, corridors, doors and obstacles, then each generator in
+file order), from the env's generator when the scenario asks for a new layout each
+episode, otherwise from the layout's own seed. Then agents, then items group by group,
+then zones placed at random, at free places the agents can reach, from the env's
+generator, in that order; then the sensors and the task.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from flatland_ma.agents.body import AgentBody
+from flatland_ma.agents.grasp import Hands
+from flatland_ma.build.bodies import footprint, make_agent, make_parts
+from flatland_ma.build.capacity import spawn_group_of, spawn_groups
+from flatland_ma.build.entities import item_group, make_item, make_zone
+from flatland_ma.build.generators import generator_for
+from flatland_ma.build.ground import Ground
+from flatland_ma.build.layout import explicit_layout
+from flatland_ma.build.reach import reachable_region
+from flatland_ma.scenario.errors import SpecError
+from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.sensors.sensor import Sensor
+from flatland_ma.sensors.suite import Sensors
+from flatland_ma.tasks.rule import RULE_KINDS, Spawn, TaskContext
+from flatland_ma.tasks.task import Task, new_records
+from flatland_ma.world.entities import Door, Entity
+from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.placement import PlacementError, Placer
+from flatland_ma.world.world import World
+
+LAYOUT_TRIES = 20
+"""Fresh draws of a generated layout before giving up on one that cannot be built."""
+
+
+@dataclass
+class Episode:
+    """What one episode runs on; rebuilt from scratch at every reset."""
+
+    world: World
+    bodies: list[AgentBody]
+    sensors: Sensors
+    task: Task
+    grid: NavGrid
+    """Free places for an agent's centre; doors and movable things count as free."""
+    placer: Placer
+    hands: Hands
+    """Every agent's graspers."""
+    doors: list[Door]
+    eyes: list[Entity]
+    """Each sensor's carrier (agent by agent, sensor by sensor): its base, or its head."""
+
+
+@dataclass
+class Site:
+    """The static part of an episode: walls, doors and obstacles, and where agents go."""
+
+    world: World
+    doors: list[Door]
+    grid: NavGrid
+    placer: Placer
+    """Places agents can reach (through the doors they can open)."""
+
+
+def build(spec: ScenarioSpec, rng: np.random.Generator, sensors: list[list[Sensor]]) -> Episode:
+    """A new episode; ``sensors[i]`` are agent i's. A scenario that cannot be built (e.g.
+    no room left for an item at this seed) raises ``ScenarioError`` naming its file, line
+    and key."""
+    try:
+        return populate(spec, lay_ground(spec, rng), rng, sensors)
+    except SpecError as err:
+        raise spec.locate(err) from None
+
+
+def lay_ground(spec: ScenarioSpec, rng: np.random.Generator) -> Site:
+    """The ground of an episode; a layout generated per episode is drawn again (up to
+    ``LAYOUT_TRIES`` times) while it cannot be used."""
+    fixed = not spec.layout.per_episode or not spec.layout.generators
+    layout_rng = np.random.default_rng(spec.layout.seed) if fixed else rng
+    for attempt in range(1 if fixed else LAYOUT_TRIES):
+        try:
+            return _site(spec, layout_rng)
+        except SpecError:
+            if fixed or attempt == LAYOUT_TRIES - 1:
+                raise
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _site(spec: ScenarioSpec, rng: np.random.Generator) -> Site:
+    """The walls, doors and obstacles of one layout, and where agents fit and can go."""
+    ground = Ground(spec)
+    ground.add(explicit_layout(spec))
+    for index, gen in enumerate(spec.layout.generators):
+        generator_for(gen, spec, index).generate(ground, rng)
+    world, grid, start = ground.world, ground.grid, ground.start
+    for group in spawn_groups(spec):
+        if not (grid.cells_in(group.spawn.area) & ~grid.blocked).any():
+            where = group.area_path or ("arena", "size")
+            raise SpecError(where, "no free place where agents could start")
+    region = reachable_region(spec, grid, ground.doors, start)
+    return Site(world, ground.doors, grid, Placer(world, grid, region))
+
+
+def populate(
+    spec: ScenarioSpec, site: Site, rng: np.random.Generator, sensors: list[list[Sensor]]
+) -> Episode:
+    """Place the agents, then the items, then zones drawn at random; the sensors and the
+    task."""
+    world, placer = site.world, site.placer
+    bodies = _place_agents(spec, world, placer, rng)
+    groups = [item_group(item, g) for g, item in enumerate(spec.items)]
+    for g, item in enumerate(spec.items):
+        if item.positions is not None:
+            for x, y in item.positions:
+                world.add(make_item(item, groups[g], x, y, home=(x, y)))
+            continue
+        for k in range(item.count):
+            if item.spawn is not None:
+                path = ("items", g, "spawn")
+            else:
+                path = ("items", g, "radius" if k == 0 else "count")
+            x, y = _place(placer, rng, item.radius, item.spawn, path, "item")
+            world.add(make_item(item, groups[g], x, y))
+    for zone in spec.zones:
+        world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
+
+    eyes = [b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own]
+    suite = Sensors(world, eyes, [s for own in sensors for s in own], [len(s) for s in sensors])
+    hands = Hands(world.space, [hand for body in bodies for hand in body.hands])
+    for hand in hands.hands:
+        world.grips[hand.shape] = hand.touching
+    ctx = TaskContext(
+        world=world,
+        bodies=bodies,
+        placer=placer,
+        hands=hands,
+        rng=rng,
+        groups=groups,
+        teams=[getattr(spec.team_of(i), "name", None) for i in range(spec.n_agents)],
+        spawns=[Spawn(s.area, s.heading) for s in map(spec.spawn_of, range(spec.n_agents))],
+        records=new_records(spec.n_agents),
+    )
+    extra = [RULE_KINDS[r.rule](**r.model_dump(exclude={"rule"})) for r in spec.rules]
+    episode = spec.episode
+    task = Task(ctx, extra, episode.shared_end, episode.end_when_eaten)
+    return Episode(world, bodies, suite, task, site.grid, placer, hands, site.doors, eyes)
+
+
+def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list[AgentBody]:
+    bodies = []
+    reach = footprint(spec.agent, make_parts(spec.agent))
+    groups = spawn_groups(spec)
+    placed = {g.team: 0 for g in groups}
+    for i in range(spec.n_agents):
+        spawn, team = spec.spawn_of(i), spec.team_of(i)
+        group = spawn_group_of(spec, groups, i)
+        k = placed[group.team]
+        placed[group.team] += 1
+        x, y = _place(placer, rng, reach, spawn.area, group.fault_path(k), "agent")
+        angle = (
+            float(rng.uniform(-math.pi, math.pi))
+            if spawn.heading is None
+            else math.radians(spawn.heading)
+        )
+        color = (
+            team.color
+            if team is not None and team.color is not None
+            else spec.agent.colors[i % len(spec.agent.colors)]
+        )
+        body = make_agent(spec.agent, i, (x, y), angle, color, world.substep_dt, world.dt)
+        bodies.append(world.add(body))
+        for link in body.links:
+            world.add(link)
+    return bodies
+
+
+def _draw_zone(zone, placer: Placer, rng: np.random.Generator) -> tuple:
+    """A ``zone.size`` rectangle centred on reachable floor inside ``zone.area``."""
+    w, h = zone.size
+    x0, y0, x1, y1 = zone.area or (0.0, 0.0, *placer.world.size)
+    inner = (x0 + w / 2, y0 + h / 2, x1 - w / 2, y1 - h / 2)
+    cells = placer.candidates(inner)
+    if len(cells) == 0:
+        cx, cy = (inner[0] + inner[2]) / 2, (inner[1] + inner[3]) / 2
+    else:
+        cx, cy = placer.grid.centre(*cells[rng.integers(len(cells))])
+    return (cx - w / 2, cy - h / 2, cx + w / 2, cy + h / 2)
+
+
+def _place(placer: Placer, rng, radius, area, path, what) -> tuple[float, float]:
+    try:
+        return placer.sample(rng, radius, area)
+    except PlacementError as err:
+        raise SpecError(path, f"no room to place every {what}: {err}") from None

@@ -1,0 +1,60 @@
+"""The sensor interface: what every sensor of an agent declares and does.
+
+A sensor declares the space of its observation and, each step, reads its observation from
+the step's sensing results. Sensors that cast rays (cameras, and later lidars) add their
+rays to the ONE kernel call that casts every ray of every agent: they say how many rays,
+at which angles from the heading of what they are mounted on, how far they see, and how
+colour fades with distance; the suite packs them and hands each its slice of the results.
+
+A new sensor is one subclass, named by its ``kind`` in the class statement (the ``type``
+its scenario spec carries), plus that spec; the builder finds it in ``SENSOR_KINDS``:
+
+    class Compass(Sensor, kind="compass"):
+        def __init__(self, name="compass", mount="base"):
+            ...
+
+Required: ``name``, ``mount``, ``space``, ``read``. Ray sensors also set ``angles``,
+``view_range``, ``half_fov`` and ``falloff``.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+
+SENSOR_KINDS: dict[str, type[Sensor]] = {}
+"""Every sensor class, by the ``type`` that scenario files give it."""
+
+
+class Sensor(ABC):
+    """Base of every sensor (see the module docstring)."""
+
+    kind: ClassVar[str]
+    name: str
+    """The observation's key when an agent has several sensors."""
+    mount: str
+    """What it sits on: ``base`` (it turns with the agent) or ``head``."""
+    space: spaces.Space
+    angles: np.ndarray = np.zeros(0)
+    """Ray angles from the mount's heading, radians, counter-clockwise (none: no rays)."""
+    view_range: float = 0.0
+    half_fov: float = 0.0
+    falloff: int = 0
+
+    def __init_subclass__(cls, kind: str | None = None, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if kind is not None:
+            cls.kind = kind
+            SENSOR_KINDS[kind] = cls
+
+    @property
+    def n_rays(self) -> int:
+        return len(self.angles)
+
+    @abstractmethod
+    def read(self, results: Any, rays: slice) -> np.ndarray:
+        """This step's observation (a fresh array in ``space``), from the suite's results
+        (``image``, ``distance``, ``hit_entity``, per ray) and this sensor's rays."""

@@ -1,0 +1,37 @@
+"""The contact log: what happened in the last step that rules may act on.
+
+The world fills it while it steps: pymunk's collision callbacks record touches (never
+act on them), and after the physics the world notes which agents' centres entered which
+zones, which named zones hold a live agent, and which tagged objects lie in zones that
+accept them. Rules read it; nobody else writes it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from flatland_ma.world.entities import Door, Entity, Item, Zone
+
+
+@dataclass
+class ContactLog:
+    items: list[tuple[Entity, Item]] = field(default_factory=list)
+    """(agent base, item) for each item an agent (or its grasper) began touching."""
+    doors: list[tuple[Entity, Door]] = field(default_factory=list)
+    """(agent base, door) for each door an agent began touching."""
+    keys: list[tuple[Entity, Door]] = field(default_factory=list)
+    """(key object, door) for each door a key object began touching."""
+    entered: list[tuple[Entity, Zone]] = field(default_factory=list)
+    """(agent base, zone) for each zone an agent's centre entered, agent by agent."""
+    occupied: set[str] = field(default_factory=set)
+    """Names of the zones that hold a live agent's centre now."""
+    deliveries: list[tuple[Entity, Zone]] = field(default_factory=list)
+    """(object, zone) for each tagged object whose centre lies in a zone accepting it."""
+
+    def clear(self) -> None:
+        self.items.clear()
+        self.doors.clear()
+        self.keys.clear()
+        self.entered.clear()
+        self.occupied.clear()
+        self.deliveries.clear()
