@@ -4,7 +4,8 @@ One readable file per algorithm, after CleanRL: ``dqn.py`` (keras-rl's DQN),
 ``a3c.py`` (universe-starter-agent's A3C, with a synchronous A2C mode), ``dfp.py``
 (Direct Future Prediction), ``ppo.py`` (shared-parameter PPO for several agents).
 ``common.py`` holds the pieces they share; ``run.py`` runs many seeds and ``plot.py``
-draws the paper's figure and the results table.
+draws the paper's figure and the results table. They run on any scenario: the log's
+counters are the scenario's own (``common.info_counters``).
 
     python -m baselines.dqn --seed 0 --total-timesteps 250000
     python -m baselines.run dqn --seeds 30 --workers 2 --steps 250000 --out runs

@@ -18,21 +18,24 @@ from __future__ import annotations
 import queue
 import time
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 import torch
 import torch.multiprocessing as mp
 import torch.nn.functional as F
+import tyro
 from torch import nn
 
 from baselines.common import (
     RunLog,
     conv_trunk,
+    counters_text,
     default_csv,
+    info_counters,
     input_channels,
     keras_init,
     make_env,
-    parse_args,
     seed_everything,
     to_input,
     trunk_length,
@@ -49,7 +52,7 @@ class Args:
     """Environment steps to train for, summed over all actor-learners."""
     csv: str = ""
     """Where to write the episode log; empty means runs/<mode>/<scenario>/seed_<seed>.csv."""
-    mode: str = "a3c"
+    mode: Literal["a3c", "a2c"] = "a3c"
     """a3c: asynchronous processes sharing parameters (Hogwild); a2c: synchronous, one process."""
     use_depth: bool = False
     """Give the network the depth channel too (the paper's input is the colour image)."""
@@ -221,8 +224,7 @@ def train_a3c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
             _, _, episode_return, info = message
             log.episode(step, episode_return, info)
             print(
-                f"step={step} return={episode_return:g} fruits={info['fruits']} "
-                f"poisons={info['poisons']}",
+                f"step={step} return={episode_return:g} {counters_text(info, log.counters)}",
                 flush=True,
             )
         else:
@@ -247,7 +249,7 @@ def train_a2c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
         log.episode(global_step + offset, episode_return, info)
         print(
             f"step={global_step + offset} return={episode_return:g} "
-            f"fruits={info['fruits']} poisons={info['poisons']}",
+            + counters_text(info, log.counters),
             flush=True,
         )
 
@@ -262,11 +264,15 @@ def train_a2c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
     return actors.env_seconds, time.perf_counter() - start
 
 
+TRAIN = {"a3c": train_a3c, "a2c": train_a2c}
+"""Mode -> its training loop."""
+
+
 def main(args: Args) -> dict:
-    if args.mode not in ("a3c", "a2c"):
-        raise ValueError(f"mode must be a3c or a2c, not {args.mode!r}")
+    train = TRAIN[args.mode]
     seed_everything(args.seed)
     probe = make_env(args.scenario)
+    counters = info_counters(probe.reset(seed=args.seed)[1])
     shape = (
         input_channels(args.use_depth),
         probe.observation_space.shape[0],
@@ -275,8 +281,7 @@ def main(args: Args) -> dict:
     )
     probe.close()
     csv_path = args.csv or default_csv(args.mode, args.scenario, args.seed)
-    log = RunLog(args.mode, csv_path, args.seed, args)
-    train = train_a3c if args.mode == "a3c" else train_a2c
+    log = RunLog(args.mode, csv_path, args.seed, args, counters)
     env_seconds, busy_seconds = train(args, log, shape)
     summary = log.close(args.total_timesteps, env_seconds, busy_seconds)
     print(
@@ -288,4 +293,4 @@ def main(args: Args) -> dict:
 
 
 if __name__ == "__main__":
-    main(parse_args(Args))
+    main(tyro.cli(Args, description=__doc__))

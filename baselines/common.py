@@ -1,23 +1,22 @@
-"""Pieces every baseline shares: arguments, seeding, the timed env, the paper's conv trunk,
-input normalisation, and the per-run CSV log.
+"""Pieces every baseline shares: the scenario's counters, seeding, the timed env, the
+evaluation after training, the paper's conv trunk, input normalisation, and the per-run
+CSV log. Each algorithm's ``Args`` dataclass is turned into flags by ``tyro.cli``.
 
 A run writes ``<csv>.part`` while it trains, one row per finished episode and agent
-(``CSV_COLUMNS``), and renames it to ``<csv>`` when it completes; beside it a JSON file
-records the arguments, the steps done, the wall time and the seconds spent inside the
-environment. ``baselines.run`` resumes by skipping seeds whose CSV exists.
+(``FIXED_COLUMNS`` around the scenario's counters), and renames it to ``<csv>`` when it
+completes; beside it a JSON file records the arguments, the counters, the steps done, the
+wall time and the seconds spent inside the environment. ``baselines.run`` resumes by
+skipping seeds whose CSV exists.
 """
 
 from __future__ import annotations
 
-import argparse
-import ast
 import csv
 import dataclasses
-import inspect
 import json
+import numbers
 import os
 import random
-import textwrap
 import time
 from pathlib import Path
 
@@ -27,50 +26,34 @@ import torch
 from torch import nn
 
 import flatland_ma
-from flatland_ma.registration import gym_id
 
-CSV_COLUMNS = ("seed", "episode", "step", "agent", "return", "fruits", "poisons", "wall_time")
-"""One row per finished episode and agent; ``step`` counts agent-steps since the start."""
+FIXED_COLUMNS = ("seed", "episode", "step", "agent", "return", "wall_time")
+"""Every run's CSV columns; the scenario's counters go between ``return`` and ``wall_time``.
+One row per finished episode and agent; ``step`` counts agent-steps since the start."""
 
 CONV_CHANNELS = (32, 48, 64)
 CONV_KERNELS = (8, 4, 3)
 
 
-# -- arguments ---------------------------------------------------------------------------
+# -- the scenario's counters ------------------------------------------------------------
 
 
-def field_docs(cls) -> dict[str, str]:
-    """The docstring written under each field of a dataclass, by field name."""
-    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    body = tree.body[0].body
-    docs = {}
-    for node, after in zip(body, body[1:]):
-        if (
-            isinstance(node, ast.AnnAssign)
-            and isinstance(after, ast.Expr)
-            and isinstance(after.value, ast.Constant)
-            and isinstance(after.value.value, str)
-        ):
-            docs[node.target.id] = " ".join(after.value.value.split())
-    return docs
+def info_counters(info: dict) -> tuple[str, ...]:
+    """The names of an agent's episode counters: every entry of its info that holds a number
+    (``score``, one count per item group, ``deliveries`` where present), in the info's order.
+    Anything else is skipped, such as ``keys`` (the tuple of the keys held, in scenarios with
+    keys): its item group's own count already says how many keys were picked up."""
+    return tuple(name for name, value in info.items() if isinstance(value, numbers.Real))
 
 
-def parse_args(cls, argv: list[str] | None = None):
-    """Command-line flags from a dataclass of arguments: ``total_timesteps`` becomes
-    ``--total-timesteps``, booleans get ``--flag/--no-flag``, help comes from the docstrings."""
-    parser = argparse.ArgumentParser(description=inspect.getdoc(inspect.getmodule(cls)))
-    docs = field_docs(cls)
-    for field in dataclasses.fields(cls):
-        flag = "--" + field.name.replace("_", "-")
-        help_text = f"{docs.get(field.name, '')} (default: {field.default})".replace("%", "%%")
-        if field.type in (bool, "bool"):
-            parser.add_argument(
-                flag, default=field.default, action=argparse.BooleanOptionalAction, help=help_text
-            )
-        else:
-            kind = {"int": int, "float": float, "str": str}.get(str(field.type), str)
-            parser.add_argument(flag, type=kind, default=field.default, help=help_text)
-    return cls(**vars(parser.parse_args(argv)))
+def counters_text(info: dict, names: tuple[str, ...]) -> str:
+    """``score=160 fruits=17 poisons=1``, for the console."""
+    return " ".join(f"{name}={_cell(info[name])}" for name in names)
+
+
+def _cell(value) -> str:
+    """A counter as the CSV writes it: integers as they are, other numbers as ``%g``."""
+    return str(int(value)) if isinstance(value, numbers.Integral) else f"{float(value):g}"
 
 
 # -- seeding and the environment ---------------------------------------------------------
@@ -105,9 +88,15 @@ class TimedEnv(gymnasium.Wrapper):
 
 
 def make_env(scenario: str) -> TimedEnv:
-    """The Gymnasium env of a single-agent scenario, timed."""
-    assert flatland_ma.GYM_IDS, "importing flatland_ma registers the Gymnasium ids"
-    return TimedEnv(gymnasium.make(gym_id(scenario)))
+    """The Gymnasium env of a single-agent scenario, timed: ``key_door`` is
+    ``flatland_ma/KeyDoor-v0``, registered when flatland_ma is imported."""
+    env_id = f"flatland_ma/{''.join(part.capitalize() for part in scenario.split('_'))}-v0"
+    if env_id not in flatland_ma.GYM_IDS:
+        raise ValueError(
+            f"{scenario!r} has no Gymnasium id (a multi-agent scenario, or no scenario); "
+            f"the single-agent ones: {', '.join(flatland_ma.GYM_IDS)}"
+        )
+    return TimedEnv(gymnasium.make(env_id))
 
 
 EVAL_SEED = 1_000_000
@@ -119,14 +108,16 @@ def evaluate_policy(scenario: str, act, episodes: int, seed: int, epsilon: float
     """Play ``episodes`` full episodes of ``act(observation, info) -> action`` on a fresh env,
     replacing the action by a uniformly random one with probability ``epsilon``.
 
-    Returns the mean return, fruits and poisons per episode, every return, the epsilon and
-    the seconds it took (kept out of the training wall time)."""
+    Returns the mean return, the mean of each of the scenario's counters at the episodes'
+    ends, every return, the epsilon and the seconds it took (kept out of the training wall
+    time)."""
     start = time.perf_counter()
     env = make_env(scenario)
     rng = np.random.default_rng(EVAL_SEED + seed)
     n_actions = int(env.action_space.n)
-    returns, fruits, poisons = [], [], []
+    returns, finals = [], []
     observation, info = env.reset(seed=EVAL_SEED + seed)
+    names = info_counters(info)
     for _ in range(episodes):
         total, done = 0.0, False
         while not done:
@@ -137,15 +128,13 @@ def evaluate_policy(scenario: str, act, episodes: int, seed: int, epsilon: float
             total += float(reward)
             done = terminated or truncated
         returns.append(total)
-        fruits.append(int(info["fruits"]))
-        poisons.append(int(info["poisons"]))
+        finals.append([float(info[name]) for name in names])
         observation, info = env.reset()
     env.close()
     return {
         "episodes": episodes,
         "return": float(np.mean(returns)),
-        "fruits": float(np.mean(fruits)),
-        "poisons": float(np.mean(poisons)),
+        "counters": dict(zip(names, map(float, np.mean(finals, axis=0)))),
         "returns": returns,
         "epsilon": epsilon,
         "seconds": round(time.perf_counter() - start, 2),
@@ -240,15 +229,21 @@ def default_csv(algorithm: str, scenario: str, seed: int) -> str:
 
 class RunLog:
     """Writes episode rows to ``<csv>.part`` as they finish; ``close`` renames it to
-    ``<csv>`` and writes the run's summary to ``<csv without .csv>.json``."""
+    ``<csv>`` and writes the run's summary to ``<csv without .csv>.json``. ``counters``
+    (from ``info_counters`` on an info at reset) are the columns between ``return`` and
+    ``wall_time``, read from each finished episode's info."""
 
-    def __init__(self, algorithm: str, csv_path: str, seed: int, args):
+    def __init__(self, algorithm: str, csv_path: str, seed: int, args, counters: tuple[str, ...]):
+        clashes = set(counters) & set(FIXED_COLUMNS)
+        if clashes:
+            raise ValueError(f"counters named like the log's own columns: {sorted(clashes)}")
+        self.counters = tuple(counters)
         self.path = Path(csv_path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.part = self.path.with_name(self.path.name + ".part")
         self.file = open(self.part, "w", newline="")
         self.writer = csv.writer(self.file)
-        self.writer.writerow(CSV_COLUMNS)
+        self.writer.writerow([*FIXED_COLUMNS[:-1], *self.counters, FIXED_COLUMNS[-1]])
         self.file.flush()
         self.algorithm, self.seed, self.args = algorithm, seed, args
         self.start = time.perf_counter()
@@ -274,8 +269,7 @@ class RunLog:
                 step,
                 agent,
                 f"{episode_return:g}",
-                int(info["fruits"]),
-                int(info["poisons"]),
+                *(_cell(info[name]) for name in self.counters),
                 f"{wall:.2f}",
             ]
         )
@@ -296,6 +290,7 @@ class RunLog:
         summary = {
             "algorithm": self.algorithm,
             "args": dataclasses.asdict(self.args),
+            "counters": list(self.counters),
             "steps": steps,
             "wall_seconds": round(wall, 2),
             "env_seconds": round(env_seconds, 2),

@@ -1,47 +1,51 @@
 """Direct Future Prediction (Dosovitskiy & Koltun, 2017) on a single-agent Flatland scenario,
 as the paper trained it with the Keras implementation of flyyufelix.
 
-The agent predicts, for every action, how its measurements (score, fruits, poisons, read
-from the env's ``info``) will change 1, 2, 4, 8, 16 and 32 steps ahead, and acts
-epsilon-greedily on the predicted change weighted by the goal [1, 1, -1] at every offset.
-Training is supervised regression on the changes actually observed in a replay buffer;
-offsets that would reach past the end of an episode are left out of the loss.
+The agent predicts, for every action, how its measurements (the scenario's counters read
+from the env's ``info``: score, fruits and poisons on fruits_poisons) will change 1, 2, 4,
+8, 16 and 32 steps ahead, and acts epsilon-greedily on the predicted change weighted by the
+goal at every offset: [1, 1, -1] on fruits_poisons, as in the paper; elsewhere +1 on the
+score and the sign of each item group's reward on its count (``default_goal``). Training is
+supervised regression on the changes actually observed in a replay buffer; offsets that
+would reach past the end of an episode are left out of the loss.
 
     python -m baselines.dfp --seed 0 --total-timesteps 250000
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
+import tyro
 from torch import nn
 
+import flatland_ma
 from baselines.common import (
     RunLog,
     RunningNormalizer,
     conv_trunk,
+    counters_text,
     default_csv,
     evaluate_after_training,
+    info_counters,
     input_channels,
     keras_init,
     make_env,
-    parse_args,
     seed_everything,
     to_input,
     trunk_length,
 )
 
-MEASUREMENTS = ("score", "fruits", "poisons")
-"""The paper's measurements, in the order of the goal."""
-
 
 @dataclass
 class Args:
     scenario: str = "fruits_poisons"
-    """Single-agent scenario to train on; its infos must hold score, fruits and poisons."""
+    """Single-agent scenario to train on; its counters (``info_counters``) are the
+    measurements."""
     seed: int = 0
     """Seeds torch, numpy and the environment (``reset(seed=seed)``)."""
     total_timesteps: int = 250_000
@@ -53,14 +57,18 @@ class Args:
     normalize_inputs: bool = True
     """Whiten the image with a running per-element mean and std (the paper: "normalization
     of inputs"), as the DQN baseline does."""
-    measurement_scale: str = "100,10,10"
-    """Score, fruits and poisons are divided by these before they enter the network and the
-    targets (the paper: "normalization of measurements"; the Keras implementation divides
-    health by 30 and medkits by 10)."""
-    goal: str = "1,1,-1"
-    """Weights of the measurements' changes in the objective, the same at every offset (the
-    paper's goal; the Keras implementation repeats it over the offsets)."""
-    offsets: str = "1,2,4,8,16,32"
+    measurement_scale: dict[str, float] = field(default_factory=dict)
+    """Divisors of the measurements before they enter the network and the targets, by
+    counter name (``--measurement-scale score 100 goal 1``); a counter not named keeps
+    ``default_scale``: the score 100, every count 10, the paper's scales on fruits_poisons
+    ("normalization of measurements"; the Keras implementation divides health by 30 and
+    medkits by 10)."""
+    goal: dict[str, float] = field(default_factory=dict)
+    """Weights of the measurements' changes in the objective, the same at every offset, by
+    counter name (``--goal score 1 fruits 1 poisons -1``); a counter not named keeps
+    ``default_goal``'s weight: the paper's [1, 1, -1] on fruits_poisons. The Keras
+    implementation repeats the goal over the offsets, as here."""
+    offsets: tuple[int, ...] = (1, 2, 4, 8, 16, 32)
     """Temporal offsets of the predicted changes (the DFP paper and the Keras implementation)."""
     learning_rate: float = 1e-5
     """Adam learning rate (the paper; betas 0.9, 0.999)."""
@@ -93,8 +101,26 @@ class Args:
     minus their mean (a ReLU head cannot predict a falling score)."""
 
 
-def floats(text: str) -> np.ndarray:
-    return np.array([float(v) for v in text.split(",")], np.float32)
+def default_goal(scenario: str, counters: tuple[str, ...]) -> dict[str, float]:
+    """+1 on the score; on an item group's count, the sign of that group's reward (fruits
+    +1, poisons -1: with the score, the paper's goal [1, 1, -1] on fruits_poisons); +1 on any
+    other counter (``deliveries``, which the delivery zones reward)."""
+    rewards = {item.name: item.reward for item in flatland_ma.load_scenario(scenario).items}
+    return {name: float(np.sign(rewards[name])) if name in rewards else 1.0 for name in counters}
+
+
+def default_scale(counters: tuple[str, ...]) -> dict[str, float]:
+    """The score divided by 100, every count by 10: the paper's scales on fruits_poisons."""
+    return {name: 100.0 if name == "score" else 10.0 for name in counters}
+
+
+def by_counter(given: dict[str, float], default: dict[str, float], flag: str) -> dict:
+    """``default`` with the entries of ``given`` over it; a name that is not a counter of the
+    scenario is an error."""
+    unknown = sorted(set(given) - set(default))
+    if unknown:
+        raise ValueError(f"{flag} names {unknown}; the scenario's counters: {list(default)}")
+    return {**default, **given}
 
 
 class DFPNetwork(nn.Module):
@@ -150,10 +176,24 @@ def main(args: Args) -> dict:
     env = make_env(args.scenario)
     rays, n_actions = env.observation_space.shape[0], int(env.action_space.n)
     channels = input_channels(args.use_depth)
-    scale, offsets = floats(args.measurement_scale), np.array(floats(args.offsets), np.int64)
-    goal = torch.from_numpy(np.tile(floats(args.goal), len(offsets)))  # offset-major, as targets
-    n_measurements = len(MEASUREMENTS)
-    log = RunLog("dfp", args.csv or default_csv("dfp", args.scenario, args.seed), args.seed, args)
+    observation, info = env.reset(seed=args.seed)
+    counters = info_counters(info)
+    # The run's JSON records the goal and scales used, defaults filled in.
+    args = dataclasses.replace(
+        args,
+        goal=by_counter(args.goal, default_goal(args.scenario, counters), "--goal"),
+        measurement_scale=by_counter(
+            args.measurement_scale, default_scale(counters), "--measurement-scale"
+        ),
+    )
+    scale = np.array([args.measurement_scale[name] for name in counters], np.float32)
+    offsets = np.array(args.offsets, np.int64)
+    weights = np.array([args.goal[name] for name in counters], np.float32)
+    goal = torch.from_numpy(np.tile(weights, len(offsets)))  # offset-major, as the targets
+    n_measurements = len(counters)
+    csv_path = args.csv or default_csv("dfp", args.scenario, args.seed)
+    log = RunLog("dfp", csv_path, args.seed, args, counters)
+    print(f"measurements {list(counters)}, goal {weights.tolist()}", flush=True)
 
     network = DFPNetwork(channels, rays, n_measurements, len(offsets), n_actions, args.keras_head)
     optimizer = torch.optim.Adam(
@@ -169,9 +209,8 @@ def main(args: Args) -> dict:
     episodes = np.zeros(capacity, np.int64)
 
     def measure(info: dict) -> np.ndarray:
-        return np.array([info[name] for name in MEASUREMENTS], np.float32) / scale
+        return np.array([info[name] for name in counters], np.float32) / scale
 
-    observation, info = env.reset(seed=args.seed)
     x, m = to_input(observation, args.use_depth), measure(info)
     episode, episode_return, start = 0, 0.0, time.perf_counter()
     for global_step in range(args.total_timesteps):
@@ -202,8 +241,8 @@ def main(args: Args) -> dict:
         if terminated or truncated:
             log.episode(global_step + 1, episode_return, info)
             print(
-                f"step={global_step + 1} return={episode_return:g} fruits={info['fruits']} "
-                f"poisons={info['poisons']} epsilon={epsilon:.3f}",
+                f"step={global_step + 1} return={episode_return:g} "
+                f"{counters_text(info, counters)} epsilon={epsilon:.3f}",
                 flush=True,
             )
             episode, episode_return = episode + 1, 0.0
@@ -257,4 +296,4 @@ def main(args: Args) -> dict:
 
 
 if __name__ == "__main__":
-    main(parse_args(Args))
+    main(tyro.cli(Args, description=__doc__))

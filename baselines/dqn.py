@@ -15,18 +15,20 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 import torch.nn.functional as F
+import tyro
 from torch import nn
 
 from baselines.common import (
     RunLog,
     RunningNormalizer,
     conv_trunk,
+    counters_text,
     default_csv,
     evaluate_after_training,
+    info_counters,
     input_channels,
     keras_init,
     make_env,
-    parse_args,
     seed_everything,
     to_input,
     trunk_length,
@@ -104,7 +106,9 @@ def main(args: Args) -> dict:
     env = make_env(args.scenario)
     rays, n_actions = env.observation_space.shape[0], int(env.action_space.n)
     channels = input_channels(args.use_depth)
-    log = RunLog("dqn", args.csv or default_csv("dqn", args.scenario, args.seed), args.seed, args)
+    observation, info = env.reset(seed=args.seed)
+    csv_path = args.csv or default_csv("dqn", args.scenario, args.seed)
+    log = RunLog("dqn", csv_path, args.seed, args, info_counters(info))
 
     q_network = QNetwork(channels, rays, n_actions)
     target_network = QNetwork(channels, rays, n_actions)
@@ -121,7 +125,6 @@ def main(args: Args) -> dict:
     rewards = np.zeros(capacity, np.float32)
     terminateds = np.zeros(capacity, np.float32)
 
-    observation, info = env.reset(seed=args.seed)
     x = to_input(observation, args.use_depth)
     episode_return, start = 0.0, time.perf_counter()
     for global_step in range(args.total_timesteps):
@@ -144,8 +147,8 @@ def main(args: Args) -> dict:
         if terminated or truncated:
             log.episode(global_step + 1, episode_return, info)
             print(
-                f"step={global_step + 1} return={episode_return:g} fruits={info['fruits']} "
-                f"poisons={info['poisons']}",
+                f"step={global_step + 1} return={episode_return:g} "
+                + counters_text(info, log.counters),
                 flush=True,
             )
             episode_return = 0.0
@@ -200,4 +203,4 @@ def main(args: Args) -> dict:
 
 
 if __name__ == "__main__":
-    main(parse_args(Args))
+    main(tyro.cli(Args, description=__doc__))

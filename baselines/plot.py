@@ -11,6 +11,9 @@ every seed completed. The table (Markdown, printed) gives per algorithm:
 
 - final return: per seed the mean return of the last ``--final`` fraction of its
   episodes, then the mean over seeds +- the 95% t-interval half-width;
+- the counts per episode (final): the mean over seeds of the same final means of each
+  counter column of the CSVs but the score (the return again): ``fruits / poisons`` on
+  fruits_poisons, ``key / goal`` on key_door;
 - steps to 80% of final: the first episode from which the smoothed mean curve stays at or
   above 80% of the final return, as the mean over seeds of the steps done by then;
 - evaluation after training: per seed the mean return of the episodes its final network
@@ -35,6 +38,8 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
+from baselines.common import FIXED_COLUMNS, info_counters
+
 
 @dataclass
 class Run:
@@ -43,8 +48,10 @@ class Run:
     """Per episode, the agent-steps done when it ended."""
     returns: np.ndarray
     """Per episode, the mean over agents of their returns."""
-    fruits: np.ndarray
-    poisons: np.ndarray
+    counters: dict[str, np.ndarray]
+    """Per counter column of the CSV (``score``, ``fruits``, ``poisons`` on fruits_poisons;
+    logs written before the counters came from the scenario have no ``score``), per
+    episode the mean over agents."""
     agent_returns: dict[str, np.ndarray]
     """Per agent, its return in each episode."""
     summary: dict
@@ -56,7 +63,9 @@ def load_runs(directory: Path) -> list[Run]:
     for path in sorted(directory.glob("seed_*.csv"), key=lambda p: int(p.stem.split("_")[1])):
         by_episode = defaultdict(list)
         with open(path, newline="") as f:
-            for row in csv.DictReader(f):
+            reader = csv.DictReader(f)
+            counters = [c for c in reader.fieldnames or [] if c not in FIXED_COLUMNS]
+            for row in reader:
                 by_episode[int(row["episode"])].append(row)
         episodes = [by_episode[k] for k in sorted(by_episode)]
         agents = sorted({row["agent"] for rows in episodes for row in rows})
@@ -70,8 +79,7 @@ def load_runs(directory: Path) -> list[Run]:
                 seed=int(path.stem.split("_")[1]),
                 steps=per_episode("step"),
                 returns=per_episode("return"),
-                fruits=per_episode("fruits"),
-                poisons=per_episode("poisons"),
+                counters={name: per_episode(name) for name in counters},
                 agent_returns={
                     a: np.array(
                         [float(r["return"]) for rows in episodes for r in rows if r["agent"] == a]
@@ -113,9 +121,14 @@ def curve(runs: list[Run], window: int) -> tuple[np.ndarray, np.ndarray, np.ndar
 def summarise(
     label: str, runs: list[Run], window: int, final: float, eval_epsilon: float = 0.05
 ) -> dict:
-    finals = np.array([r.returns[-max(1, int(len(r.returns) * final)) :].mean() for r in runs])
-    fruits = np.mean([r.fruits[-max(1, int(len(r.fruits) * final)) :].mean() for r in runs])
-    poisons = np.mean([r.poisons[-max(1, int(len(r.poisons) * final)) :].mean() for r in runs])
+    def last_part(values: np.ndarray) -> float:
+        return values[-max(1, int(len(values) * final)) :].mean()
+
+    finals = np.array([last_part(r.returns) for r in runs])
+    # The counters every seed logged: a directory resumed with a newer version of the
+    # baselines mixes logs with a score column and logs without.
+    names = [n for n in runs[0].counters if all(n in r.counters for r in runs)]
+    counters = {n: float(np.mean([last_part(r.counters[n]) for r in runs])) for n in names}
     final_mean, final_half = t_interval(finals)
     episodes, mean, _ = curve(runs, window)
     to_80 = None
@@ -139,7 +152,7 @@ def summarise(
         "steps": int(np.median([r.summary.get("steps", r.steps[-1]) for r in runs])),
         "episodes": int(np.median([len(r.returns) for r in runs])),
         "final": (float(final_mean), float(final_half)),
-        "fruits_poisons": (float(fruits), float(poisons)),
+        "counters": counters,
         "steps_to_80": to_80,
         "evaluation": (*map(float, t_interval(np.array(evaluations))), len(evaluations))
         if evaluations
@@ -162,14 +175,19 @@ def references(scenario: str, episodes: int) -> list[dict]:
         env = flatland_ma.parallel_env(scenario)
         scores = evaluate(env, make(env), episodes=episodes, seed=10_000)
         mean, half = t_interval(np.array(scores.returns))
-        fruits = np.mean([np.mean([i["fruits"] for i in info.values()]) for info in scores.infos])
-        poisons = np.mean([np.mean([i["poisons"] for i in info.values()]) for info in scores.infos])
+        names = info_counters(next(iter(scores.infos[0].values())))
+        counters = {
+            name: float(
+                np.mean([np.mean([i[name] for i in infos.values()]) for infos in scores.infos])
+            )
+            for name in names
+        }
         rows.append(
             {
                 "label": label,
                 "episodes": episodes,
                 "final": (float(mean), float(half)),
-                "fruits_poisons": (float(fruits), float(poisons)),
+                "counters": counters,
             }
         )
     return rows
@@ -181,10 +199,18 @@ def thousands(steps: float) -> str:
 
 
 def table(rows: list[dict], reference_rows: list[dict]) -> str:
+    names = list(dict.fromkeys(n for r in rows + reference_rows for n in r["counters"]))
+    names = [n for n in names if n != "score"]  # the return again
+
+    def counts(r: dict) -> str:
+        cells = [f"{r['counters'][n]:.1f}" if n in r["counters"] else "-" for n in names]
+        return " / ".join(cells) or "-"
+
     lines = [
-        "| algorithm | seeds x steps (episodes) | final return (mean ± 95% CI) | fruits / poisons "
-        "per episode (final) | steps to 80% of final | evaluation after training (mean ± 95% CI) "
-        "| wall time per seed (mean ± std) | env share |",
+        "| algorithm | seeds x steps (episodes) | final return (mean ± 95% CI) | "
+        f"{' / '.join(names) or 'counts'} per episode (final) | steps to 80% of final | "
+        "evaluation after training (mean ± 95% CI) | wall time per seed (mean ± std) | "
+        "env share |",
         "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -199,15 +225,13 @@ def table(rows: list[dict], reference_rows: list[dict]) -> str:
             )
         lines.append(
             f"| {r['label']} | {r['seeds']} x {thousands(r['steps'])} ({r['episodes']}) | "
-            f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
-            f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | "
+            f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | {counts(r)} | "
             f"{to_80} | {evaluation} | {wall} | {share} |"
         )
     for r in reference_rows:
         lines.append(
             f"| {r['label']} (no learning) | {r['episodes']} episodes | "
-            f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | "
-            f"{r['fruits_poisons'][0]:.1f} / {r['fruits_poisons'][1]:.1f} | - | - | - | - |"
+            f"{r['final'][0]:.1f} ± {r['final'][1]:.1f} | {counts(r)} | - | - | - | - |"
         )
     return "\n".join(lines)
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import supersuit as ss
 import torch
+import tyro
 from pettingzoo.utils.wrappers import BaseParallelWrapper
 from torch import nn
 
@@ -25,8 +26,8 @@ from baselines.common import (
     RunLog,
     conv_trunk,
     default_csv,
+    info_counters,
     input_channels,
-    parse_args,
     seed_everything,
     to_input,
     trunk_length,
@@ -130,6 +131,9 @@ def main(args: Args) -> dict:
     seed_everything(args.seed)
     parallel = FinalInfos(flatland_ma.parallel_env(args.scenario))
     agents = list(parallel.possible_agents)
+    probe = flatland_ma.parallel_env(args.scenario)
+    counters = info_counters(probe.reset(seed=args.seed)[1][agents[0]])  # the same for all
+    probe.close()
     vec = ss.concat_vec_envs_v1(
         ss.pettingzoo_env_to_vec_env_v1(parallel), args.num_envs, num_cpus=0, base_class="gymnasium"
     )
@@ -138,7 +142,8 @@ def main(args: Args) -> dict:
     batch_size = slots * args.num_steps
     minibatch_size = batch_size // args.num_minibatches
     iterations = max(1, args.total_timesteps // batch_size)
-    log = RunLog("ppo", args.csv or default_csv("ppo", args.scenario, args.seed), args.seed, args)
+    csv_path = args.csv or default_csv("ppo", args.scenario, args.seed)
+    log = RunLog("ppo", csv_path, args.seed, args, counters)
 
     agent = Agent(channels, rays, int(vec.action_space.n), args.hidden)
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
@@ -255,4 +260,4 @@ def main(args: Args) -> dict:
 
 
 if __name__ == "__main__":
-    main(parse_args(Args))
+    main(tyro.cli(Args, description=__doc__))

@@ -1,5 +1,7 @@
-"""The baselines, each trained for a tiny budget in a subprocess, judged by the CSV it writes;
-the runner and the plot on those CSVs; and (slow) DQN learning to beat random play."""
+"""The baselines, each trained for a tiny budget in a subprocess, judged by the CSV it writes,
+on fruits_poisons and on key_door (no fruits, no poisons); the counters they log; the runner
+and the plot on those CSVs and on CSVs from before the counters came from the scenario; and
+(slow) DQN learning to beat random play."""
 
 from __future__ import annotations
 
@@ -15,9 +17,14 @@ import pytest
 
 pytest.importorskip("torch")
 pytest.importorskip("supersuit")
+pytest.importorskip("tyro")
 
 ROOT = Path(__file__).resolve().parent.parent
-COLUMNS = ["seed", "episode", "step", "agent", "return", "fruits", "poisons", "wall_time"]
+COUNTERS = {"fruits_poisons": ["score", "fruits", "poisons"], "key_door": ["score", "key", "goal"]}
+"""The counters each scenario's infos hold at reset, in order (key_door's ``keys`` tuple is
+not one)."""
+REWARDS = {"fruits_poisons": {"fruits": 10, "poisons": -10}, "key_door": {"key": 1, "goal": 10}}
+"""The reward of one item of each group: the return is the sum of reward x count."""
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
@@ -34,39 +41,80 @@ def run_module(module: str, *args: str, timeout: float = 120) -> str:
     return result.stdout
 
 
-def read_log(path: Path) -> list[dict]:
+def read_log(path: Path, scenario: str = "fruits_poisons") -> list[dict]:
     """The rows of a finished run's CSV, checked for the columns and their meaning."""
+    columns = ["seed", "episode", "step", "agent", "return", *COUNTERS[scenario], "wall_time"]
     assert path.exists() and not path.with_name(path.name + ".part").exists()
     with open(path, newline="") as f:
         reader = csv.DictReader(f)
-        assert reader.fieldnames == COLUMNS
+        assert reader.fieldnames == columns
         rows = list(reader)
     for row in rows:
-        fruits, poisons = int(row["fruits"]), int(row["poisons"])
-        assert fruits >= 0 and poisons >= 0
-        # fruits_poisons: +10 a fruit, -10 a poison; the counters come from the env's infos.
-        assert float(row["return"]) == 10 * (fruits - poisons), row
+        counts = {name: int(row[name]) for name in REWARDS[scenario]}
+        assert min(counts.values()) >= 0
+        # The counters come from the env's infos; the return is what they were worth.
+        worth = sum(REWARDS[scenario][name] * n for name, n in counts.items())
+        assert float(row["return"]) == worth == float(row["score"]), row
         assert float(row["wall_time"]) >= 0
     steps = [int(r["step"]) for r in rows]
     assert steps == sorted(steps)
     return rows
 
 
-def summary(path: Path) -> dict:
+def summary(path: Path, scenario: str = "fruits_poisons") -> dict:
     data = json.loads(path.with_suffix(".json").read_text())
     assert data["wall_seconds"] > 0 and 0 < data["env_share"] < 1
+    assert data["counters"] == COUNTERS[scenario]
     return data
 
 
-def check_evaluation(data: dict, episodes: int) -> None:
+def check_evaluation(data: dict, episodes: int, scenario: str = "fruits_poisons") -> None:
     """The greedy play after training, as stored in the run's JSON."""
     evaluation = data["evaluation"]
     assert evaluation["episodes"] == episodes == len(evaluation["returns"])
     assert evaluation["return"] == pytest.approx(np.mean(evaluation["returns"]))
-    assert evaluation["return"] == pytest.approx(
-        10 * (evaluation["fruits"] - evaluation["poisons"])
-    )
+    counters = evaluation["counters"]
+    assert list(counters) == COUNTERS[scenario]
+    worth = sum(reward * counters[name] for name, reward in REWARDS[scenario].items())
+    assert evaluation["return"] == pytest.approx(worth) == counters["score"]
     assert evaluation["seconds"] > 0 and evaluation["epsilon"] == 0.05
+
+
+def test_counters_are_the_numeric_entries_of_an_info():
+    import flatland_ma
+    from baselines.common import info_counters
+
+    fruits_poisons = {"score": 20.0, "fruits": 3, "poisons": 1}
+    assert info_counters(fruits_poisons) == ("score", "fruits", "poisons")
+    key_door = {"score": 1.0, "key": 1, "goal": 0, "keys": ("key",)}
+    assert info_counters(key_door) == ("score", "key", "goal")
+    assert info_counters({"score": 0.0, "deliveries": np.int64(2), "note": "x"}) == (
+        "score",
+        "deliveries",
+    )
+    for scenario, names in COUNTERS.items():  # what the envs' infos hold at reset
+        env = flatland_ma.parallel_env(scenario)
+        _, infos = env.reset(seed=0)
+        assert all(info_counters(info) == tuple(names) for info in infos.values())
+
+
+def test_dfp_goal_defaults_to_the_papers_on_fruits_poisons_and_the_rewards_signs_elsewhere():
+    from baselines.dfp import by_counter, default_goal, default_scale
+
+    fruits_poisons = tuple(COUNTERS["fruits_poisons"])
+    assert list(default_goal("fruits_poisons", fruits_poisons).values()) == [1, 1, -1]
+    assert default_scale(fruits_poisons) == {"score": 100, "fruits": 10, "poisons": 10}
+    key_door = tuple(COUNTERS["key_door"])
+    assert default_goal("key_door", key_door) == {"score": 1, "key": 1, "goal": 1}
+    # A counter that is no item group's count (deliveries) is worth +1.
+    push_box = default_goal("push_box", ("score", "deliveries"))
+    assert push_box == {"score": 1, "deliveries": 1}
+    # A flag overrides the counters it names and keeps the others' defaults...
+    goal = by_counter({"key": 0.0}, default_goal("key_door", key_door), "--goal")
+    assert goal == {"score": 1, "key": 0, "goal": 1}
+    # ... and names only the scenario's counters.
+    with pytest.raises(ValueError, match="poisons"):
+        by_counter({"poisons": -1.0}, default_goal("key_door", key_door), "--goal")
 
 
 def test_evaluation_plays_whole_episodes_on_seeds_training_never_uses():
@@ -80,9 +128,8 @@ def test_evaluation_plays_whole_episodes_on_seeds_training_never_uses():
 
     evaluation = evaluate_policy("fruits_poisons", forward, episodes=2, seed=3)
     assert len(seen) == 2 * 500 and evaluation["episodes"] == 2
-    assert evaluation["return"] == pytest.approx(
-        10 * (evaluation["fruits"] - evaluation["poisons"])
-    )
+    counters = evaluation["counters"]
+    assert evaluation["return"] == pytest.approx(10 * (counters["fruits"] - counters["poisons"]))
     env = make_env("fruits_poisons")
     np.testing.assert_array_equal(seen[0], env.reset(seed=EVAL_SEED + 3)[0])
     assert not np.array_equal(seen[0], env.reset(seed=3)[0])  # training's first observation
@@ -104,7 +151,8 @@ def test_evaluation_takes_random_actions_at_its_epsilon():
         return np.array(seen), evaluation
 
     still, evaluation = views(0.0)
-    assert evaluation["fruits"] == evaluation["poisons"] == 0 and evaluation["epsilon"] == 0.0
+    assert evaluation["counters"] == {"score": 0, "fruits": 0, "poisons": 0}
+    assert evaluation["epsilon"] == 0.0
     # Turning on the spot, a full turn later the agent sees the same view again.
     period = next(k for k in range(1, 500) if np.allclose(still[k], still[0], atol=1e-6))
     assert np.allclose(still[period : 2 * period], still[:period], atol=1e-6)
@@ -228,7 +276,11 @@ def test_dfp_trains_on_the_measurements(tmp_path):
     )
     rows = read_log(out)
     assert [int(r["step"]) for r in rows] == [500, 1000, 1500]
-    check_evaluation(summary(out), episodes=1)
+    data = summary(out)
+    check_evaluation(data, episodes=1)
+    # The paper's goal and measurement scales, by the counters' names.
+    assert data["args"]["goal"] == {"score": 1, "fruits": 1, "poisons": -1}
+    assert data["args"]["measurement_scale"] == {"score": 100, "fruits": 10, "poisons": 10}
 
 
 def test_ppo_logs_every_agent_of_every_episode(tmp_path):
@@ -252,6 +304,84 @@ def test_ppo_logs_every_agent_of_every_episode(tmp_path):
     ]
     assert [int(r["step"]) for r in rows] == [2000] * 4 + [4000] * 4  # agent-steps
     assert sum(int(r["fruits"]) + int(r["poisons"]) for r in rows) > 0
+
+
+KEY_DOOR_BUDGETS = {
+    "dqn": ["--total-timesteps", "500", "--learning-starts", "450", "--eval-episodes", "1"],
+    "a3c": ["--num-workers", "1", "--total-timesteps", "500"],
+    "dfp": ["--total-timesteps", "600", "--learning-starts", "500", "--eval-episodes", "1"],
+    "ppo": ["--num-envs", "1", "--num-steps", "128", "--total-timesteps", "512"],
+}
+"""Just over one 500-step key_door episode each, with short warm-ups."""
+
+
+@pytest.mark.parametrize("algorithm", sorted(KEY_DOOR_BUDGETS))
+def test_every_baseline_logs_the_counters_of_a_scenario_without_fruits(tmp_path, algorithm):
+    out = tmp_path / "seed_2.csv"
+    budget = KEY_DOOR_BUDGETS[algorithm]
+    run_module(
+        f"baselines.{algorithm}",
+        "--scenario",
+        "key_door",
+        "--seed",
+        "2",
+        *budget,
+        "--csv",
+        str(out),
+    )
+    rows = read_log(out, "key_door")
+    total = int(budget[budget.index("--total-timesteps") + 1])
+    assert rows and [r["episode"] for r in rows] == [str(k) for k in range(len(rows))]
+    assert 0 < int(rows[-1]["step"]) <= total
+    assert {r["seed"] for r in rows} == {"2"} and {r["agent"] for r in rows} == {"agent_0"}
+    assert all(int(r["key"]) <= 1 and int(r["goal"]) <= 1 for r in rows)  # one of each
+    data = summary(out, "key_door")
+    assert data["args"]["scenario"] == "key_door"
+    if "--eval-episodes" in budget:
+        check_evaluation(data, episodes=1, scenario="key_door")
+    if algorithm == "dfp":  # +1 on the score and on both items, rewarded +1 and +10
+        assert data["args"]["goal"] == {"score": 1, "key": 1, "goal": 1}
+
+
+def test_plot_reads_logs_from_before_and_after_the_counters_came_from_the_scenario(tmp_path):
+    from baselines.plot import load_runs, summarise, table
+
+    def write(path, header, rows):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("\n".join(",".join(map(str, line)) for line in [header, *rows]) + "\n")
+
+    fixed = ["seed", "episode", "step", "agent", "return"]
+    old = tmp_path / "fruits_poisons"
+    write(
+        old / "seed_0.csv",
+        [*fixed, "fruits", "poisons", "wall_time"],
+        [[0, 0, 500, "agent_0", 10, 2, 1, 1.0], [0, 1, 1000, "agent_0", 30, 4, 1, 2.0]],
+    )
+    # A later seed in the same directory, written since: the score is a column too.
+    write(
+        old / "seed_1.csv",
+        [*fixed, "score", "fruits", "poisons", "wall_time"],
+        [[1, 0, 500, "agent_0", 0, 0, 1, 1, 1.0], [1, 1, 1000, "agent_0", 50, 50, 6, 1, 2.0]],
+    )
+    runs = load_runs(old)
+    assert list(runs[0].counters) == ["fruits", "poisons"]
+    assert list(runs[1].counters) == ["score", "fruits", "poisons"]
+    row = summarise("dqn", runs, window=1, final=0.5)
+    assert row["counters"] == {"fruits": 5.0, "poisons": 1.0}
+    key_door = tmp_path / "key_door"
+    write(
+        key_door / "seed_0.csv",
+        [*fixed, "score", "key", "goal", "wall_time"],
+        [[0, 0, 500, "agent_0", 1, 1, 1, 0, 1.0], [0, 1, 812, "agent_0", 11, 11, 1, 1, 2.0]],
+    )
+    key_row = summarise("dfp", load_runs(key_door), window=1, final=0.5)
+    assert key_row["counters"] == {"score": 11.0, "key": 1.0, "goal": 1.0}
+
+    lines = table([row], []).splitlines()
+    assert "| fruits / poisons per episode (final) |" in lines[0]  # as in docs/results.md
+    assert "| 5.0 / 1.0 |" in lines[2]
+    lines = table([key_row], []).splitlines()
+    assert "| key / goal per episode (final) |" in lines[0] and "| 1.0 / 1.0 |" in lines[2]
 
 
 def test_runner_resumes_and_plot_draws_the_figure(tmp_path):
@@ -317,7 +447,7 @@ def test_steps_to_80_percent_count_from_where_the_curve_stays_up():
         returns = np.array(returns, float)
         steps = 500 * np.arange(1, len(returns) + 1)
         none = np.zeros_like(returns)
-        return Run(seed, steps, returns, none, none, {"agent_0": returns}, {})
+        return Run(seed, steps, returns, {"fruits": none}, {"agent_0": returns}, {})
 
     # Touches 80% of the final return by chance at episode 2, stays up only from episode 6.
     curve = [0, 90, 10, 20, 40, 85, 95, 100, 100, 100]
