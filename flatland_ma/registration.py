@@ -1,11 +1,16 @@
-"""Gymnasium ids for every single-agent scenario, registered when the package is imported."""
+"""Gymnasium ids for every single-agent scenario, registered when the package is imported.
+
+Each id is registered with its scenario's ``episode.max_steps`` as ``max_episode_steps``,
+so ``gymnasium.make``'s ``TimeLimit`` truncates there unless ``max_episode_steps=N`` says
+otherwise; the env is built with ``time_limit=False`` so that it does not truncate too.
+"""
 
 from __future__ import annotations
 
 import gymnasium
-import yaml
 
-from flatland_ma.scenario.loader import list_scenarios, scenario_path
+from flatland_ma.scenario.loader import list_scenarios, read_raw, scenario_path, validate
+from flatland_ma.scenario.schema import ScenarioSpec
 
 NAMESPACE = "flatland_ma"
 
@@ -15,32 +20,33 @@ def gym_id(scenario: str) -> str:
     return f"{NAMESPACE}/{''.join(part.capitalize() for part in scenario.split('_'))}-v0"
 
 
-def single_agent_scenarios() -> list[str]:
-    """Shipped scenarios with one agent (a file that does not set ``n_agents`` has one)."""
-    names = []
+def single_agent_scenarios() -> dict[str, int]:
+    """Shipped scenarios with one agent, each with its ``episode.max_steps``."""
+    limits = {}
     for name in list_scenarios():
-        n_agents = _declared_n_agents(name)
-        if n_agents == 1:
-            names.append(name)
-    return names
+        spec = _read(name)
+        if spec.n_agents == 1:
+            limits[name] = spec.episode.max_steps
+    return limits
 
 
-def _declared_n_agents(name: str, depth: int = 0) -> object:
-    data = yaml.safe_load(scenario_path(name).read_text(encoding="utf-8")) or {}
-    if "n_agents" in data or "extends" not in data or depth > 8:
-        return data.get("n_agents", 1)
-    return _declared_n_agents(data["extends"], depth + 1)
+def _read(name: str) -> ScenarioSpec:
+    """The validated file (``extends`` and defaults included), without the layout checks
+    and the physics that a full ``load_scenario`` needs."""
+    raw, marks = read_raw(name)
+    return validate(raw, marks, fallback=str(scenario_path(name)))
 
 
 def register_gym_ids() -> list[str]:
     ids = []
-    for name in single_agent_scenarios():
+    for name, max_steps in single_agent_scenarios().items():
         env_id = gym_id(name)
         if env_id not in gymnasium.registry:
             gymnasium.register(
                 id=env_id,
                 entry_point="flatland_ma.envs.gym:FlatlandGymEnv",
-                kwargs={"scenario": name},
+                max_episode_steps=max_steps,
+                kwargs={"scenario": name, "time_limit": False},
             )
         ids.append(env_id)
     return ids

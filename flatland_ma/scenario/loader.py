@@ -22,6 +22,7 @@ from flatland_ma.scenario.errors import (
     Problem,
     ScenarioError,
     SpecError,
+    UnknownKeywordError,
     locate,
     located,
 )
@@ -66,7 +67,8 @@ def scenario_path(name: str | Path) -> Path:
 
 
 def load_scenario(name: str | Path = "fruits_poisons", **overrides: Any) -> ScenarioSpec:
-    """Load, merge and validate a scenario by name or path; raise ``ScenarioError``.
+    """Load, merge and validate a scenario by name or path; raise ``ScenarioError``
+    (``UnknownKeywordError``, also a ``TypeError``, for an override that is no top-level key).
 
     Any other exception met on the way is a bug of this package; it is still reported as a
     ``ScenarioError`` naming the file (with the original exception chained as its cause).
@@ -82,6 +84,7 @@ def load_scenario(name: str | Path = "fruits_poisons", **overrides: Any) -> Scen
 
 
 def _load(name: str | Path, overrides: dict, source: str) -> ScenarioSpec:
+    check_keywords(overrides, source)
     raw, marks = read_raw(name)
     if overrides:
         raw = merge(raw, overrides, marks, (), OVERRIDES)
@@ -95,6 +98,25 @@ def _load(name: str | Path, overrides: dict, source: str) -> ScenarioSpec:
     except SpecError as err:
         raise located(err, marks, source) from None
     return spec
+
+
+def check_keywords(overrides: Mapping, source: str) -> None:
+    """Raise ``UnknownKeywordError`` for override keywords that are no top-level key of a
+    scenario, naming each and the scenario file (nested keys are checked by validation)."""
+    allowed = sorted(ScenarioSpec.model_fields)
+    problems = []
+    for key in overrides:
+        if key in ScenarioSpec.model_fields:
+            continue
+        hint = difflib.get_close_matches(str(key), allowed, n=1)
+        maybe = f" (did you mean {hint[0]!r}?)" if hint else ""
+        message = (
+            f"unknown key {key!r} in the keyword overrides of {source}{maybe}; "
+            f"allowed keys: {', '.join(allowed)}"
+        )
+        problems.append(Problem(OVERRIDES, None, (key,), message))
+    if problems:
+        raise UnknownKeywordError(problems)
 
 
 def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Marks]:
