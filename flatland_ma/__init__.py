@@ -8,16 +8,21 @@ gymnasium.make("flatland_ma/FruitsPoisons-v0")           # Gymnasium, one agent
 
 from __future__ import annotations
 
+from importlib.metadata import PackageNotFoundError, version
+
 from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.envs.aec import env
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.registration import register_gym_ids
 from flatland_ma.scenario.loader import list_scenarios, load_scenario
 
-__version__ = "0.1.0"
+try:  # the installed distribution's version: pyproject.toml is its one source
+    __version__ = version("flatland-ma")
+except PackageNotFoundError:  # a source tree on sys.path, never installed
+    __version__ = "0+unknown"
 
 parallel_env = FlatlandParallelEnv
-"""``parallel_env(scenario="fruits_poisons", render_mode=None, **overrides)``."""
+"""``parallel_env(scenario="fruits_poisons", render_mode=None, max_cycles=None, **overrides)``."""
 
 GYM_IDS = register_gym_ids()
 """The Gymnasium ids registered on import, one per single-agent scenario."""

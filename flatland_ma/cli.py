@@ -8,12 +8,14 @@ from pathlib import Path
 
 import numpy as np
 
+from flatland_ma import __version__
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="flatland-ma", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
 
     commands.add_parser("list", help="the shipped scenarios, one line each")
@@ -26,7 +28,8 @@ def main(argv: list[str] | None = None) -> int:
     demo.add_argument("--out", default="demo", help="folder for the GIF and the PNG")
 
     record = commands.add_parser(
-        "record", help="write a GIF (and a PNG of its middle frame), or only a PNG, of play"
+        "record",
+        help="write a GIF or an MP4 (and a PNG of its middle frame), or only a PNG, of play",
     )
     record.add_argument("scenario")
     record.add_argument(
@@ -38,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     record.add_argument(
         "--out",
         default=None,
-        help="a .gif, or a .png for the last frame only (default: <scenario>.gif)",
+        help="a .gif or .mp4, or a .png for the last frame only (default: <scenario>.gif)",
     )
 
     play = commands.add_parser("play", help="play with the keyboard (needs a display)")
@@ -114,7 +117,14 @@ def _demo(args) -> int:
 
 
 def _record(args) -> int:
+    from flatland_ma.render.video import check_writable
+
     out = Path(args.out or f"{args.scenario}.gif")
+    try:
+        check_writable(out)
+    except ValueError as err:
+        print(f"flatland-ma record: {err}", file=sys.stderr)
+        return 2
     written = _write_recording(args.scenario, args.policy, args.steps, args.every, args.seed, out)
     print(f"wrote {written}")
     return 0
@@ -123,7 +133,7 @@ def _record(args) -> int:
 def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.policies import CarrierPolicy, GreedyForager, PlannerPolicy, RandomPolicy
-    from flatland_ma.render.video import save_gif, save_png
+    from flatland_ma.render.video import save_gif, save_mp4, save_png
 
     env = FlatlandParallelEnv(scenario, render_mode="rgb_array")
     observations, _ = env.reset(seed=seed)
@@ -134,7 +144,7 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
         "random": lambda a: RandomPolicy(env.action_space(a), seed=seed),
     }
     agents = {a: makers[policy](a) for a in env.possible_agents}
-    gif = out.suffix.lower() != ".png"
+    video = out.suffix.lower() != ".png"
     frames = [env.render()]
     for t in range(steps):
         if not env.agents:
@@ -143,12 +153,13 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
         observations, *_ = env.step(actions)
         # One frame in ``every``, and always the last (the step that ends the episode).
         last = not env.agents or t == steps - 1
-        if gif and ((t + 1) % every == 0 or last):
+        if video and ((t + 1) % every == 0 or last):
             frames.append(env.render())
-    if not gif:
+    if not video:
         return save_png(env.render(), out)
     save_png(frames[len(frames) // 2], out.with_suffix(".png"))
-    return save_gif(frames, out, fps=env.metadata["render_fps"] / every)
+    save = save_mp4 if out.suffix.lower() == ".mp4" else save_gif
+    return save(frames, out, fps=env.metadata["render_fps"] / every)
 
 
 def _play(args) -> int:

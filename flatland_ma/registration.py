@@ -1,11 +1,15 @@
-"""Gymnasium ids for every single-agent scenario, registered when the package is imported."""
+"""Gymnasium ids for every single-agent scenario, registered when the package is imported.
+
+Each id is registered with its scenario's ``episode.max_steps`` as ``max_episode_steps``,
+so ``gymnasium.make``'s ``TimeLimit`` truncates there unless ``max_episode_steps=N`` says
+otherwise; the env is built with ``time_limit=False`` so that it does not truncate too.
+"""
 
 from __future__ import annotations
 
 import gymnasium
-import yaml
 
-from flatland_ma.scenario.loader import list_scenarios, scenario_path
+from flatland_ma.scenario.loader import list_scenarios, load_scenario
 
 NAMESPACE = "flatland_ma"
 
@@ -15,32 +19,26 @@ def gym_id(scenario: str) -> str:
     return f"{NAMESPACE}/{''.join(part.capitalize() for part in scenario.split('_'))}-v0"
 
 
-def single_agent_scenarios() -> list[str]:
-    """Shipped scenarios with one agent (a file that does not set ``n_agents`` has one)."""
-    names = []
+def single_agent_scenarios() -> dict[str, int]:
+    """Shipped scenarios with one agent, each with its ``episode.max_steps``."""
+    limits = {}
     for name in list_scenarios():
-        n_agents = _declared_n_agents(name)
-        if n_agents == 1:
-            names.append(name)
-    return names
-
-
-def _declared_n_agents(name: str, depth: int = 0) -> object:
-    data = yaml.safe_load(scenario_path(name).read_text(encoding="utf-8")) or {}
-    if "n_agents" in data or "extends" not in data or depth > 8:
-        return data.get("n_agents", 1)
-    return _declared_n_agents(data["extends"], depth + 1)
+        spec = load_scenario(name)  # the file alone: nothing is built
+        if spec.n_agents == 1:
+            limits[name] = spec.episode.max_steps
+    return limits
 
 
 def register_gym_ids() -> list[str]:
     ids = []
-    for name in single_agent_scenarios():
+    for name, max_steps in single_agent_scenarios().items():
         env_id = gym_id(name)
         if env_id not in gymnasium.registry:
             gymnasium.register(
                 id=env_id,
                 entry_point="flatland_ma.envs.gym:FlatlandGymEnv",
-                kwargs={"scenario": name},
+                max_episode_steps=max_steps,
+                kwargs={"scenario": name, "time_limit": False},
             )
         ids.append(env_id)
     return ids

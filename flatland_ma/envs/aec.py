@@ -33,7 +33,15 @@ class FlatlandAECEnv(parallel_to_aec_wrapper):
         return self.env.action_index(name, agent)
 
 
-def env(scenario="fruits_poisons", render_mode: str | None = None, **overrides) -> AECEnv:
-    """AEC view of ``FlatlandParallelEnv``: agents act in turn, physics runs once all have."""
-    parallel = FlatlandParallelEnv(scenario, render_mode=render_mode, **overrides)
+def env(
+    scenario="fruits_poisons",
+    render_mode: str | None = None,
+    max_cycles: int | None = None,
+    **overrides,
+) -> AECEnv:
+    """AEC view of ``FlatlandParallelEnv``: agents act in turn, physics runs once all have.
+    ``max_cycles`` sets the episode length (the scenario's ``episode.max_steps``)."""
+    parallel = FlatlandParallelEnv(
+        scenario, render_mode=render_mode, max_cycles=max_cycles, **overrides
+    )
     return OrderEnforcingWrapper(FlatlandAECEnv(parallel))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import gymnasium
 
 from flatland_ma.envs.parallel import RENDER_MODES, FlatlandParallelEnv
@@ -10,12 +12,31 @@ from flatland_ma.envs.parallel import RENDER_MODES, FlatlandParallelEnv
 class FlatlandGymEnv(gymnasium.Env):
     """One agent of a ``FlatlandParallelEnv``; observations, actions, rewards and infos are
     that agent's. Registered as ``flatland_ma/<Scenario>-v0`` for each single-agent
-    scenario (e.g. ``flatland_ma/FruitsPoisons-v0``)."""
+    scenario (e.g. ``flatland_ma/FruitsPoisons-v0``).
+
+    Built directly, it truncates at the scenario's ``episode.max_steps``. Each id is
+    registered with that limit as its ``max_episode_steps`` and with ``time_limit=False``:
+    ``gymnasium.make``'s ``TimeLimit`` wrapper is then the one that truncates, after
+    ``max_episode_steps`` steps, longer or shorter than the scenario's.
+    """
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 30}
 
-    def __init__(self, scenario="fruits_poisons", render_mode: str | None = None, **overrides):
+    def __init__(
+        self,
+        scenario="fruits_poisons",
+        render_mode: str | None = None,
+        time_limit: bool = True,
+        **overrides,
+    ):
+        if not time_limit and _sets_episode_length(overrides):
+            raise TypeError(
+                "with time_limit=False (as gymnasium.make builds it) a wrapper truncates: "
+                "set the episode length with gymnasium.make(..., max_episode_steps=N)"
+            )
         self.parallel_env = FlatlandParallelEnv(scenario, render_mode=render_mode, **overrides)
+        if not time_limit:
+            self.parallel_env.step_limit = None
         if self.parallel_env.spec.n_agents != 1:
             raise ValueError(
                 f"scenario {scenario!r} has {self.parallel_env.spec.n_agents} agents; "
@@ -68,3 +89,9 @@ class FlatlandGymEnv(gymnasium.Env):
         self._actuator = self.parallel_env._actuators[0]
         if self.parallel_env._np_random is not None:
             self._np_random = self.parallel_env.np_random
+
+
+def _sets_episode_length(overrides: dict) -> bool:
+    """Whether the overrides set the scenario's ``episode.max_steps`` (or ``max_cycles``)."""
+    episode = overrides.get("episode")
+    return "max_cycles" in overrides or (isinstance(episode, Mapping) and "max_steps" in episode)

@@ -5,8 +5,10 @@ float32 array of shape ``(rays, 4)`` (RGB times intensity, and depth), and acts 
 ``Discrete(3)`` (forward, rotate left, rotate right) or ``Box(-1, 1, (3,))`` (longitudinal,
 lateral, angular), as the scenario says; a head and arms add their own actions
 (``action_names`` lists them). Rewards come from the scenario's task; reaching
-``episode.max_steps`` truncates every agent. ``infos[agent]`` holds the agent's episode
-counters: ``score`` and one count per item group (e.g. ``fruits``, ``poisons``).
+``episode.max_steps`` (``max_cycles=N`` sets it, as in PettingZoo's own environments)
+truncates every agent. ``infos[agent]`` holds the agent's episode counters: ``score`` and
+one count per item group (e.g. ``fruits``, ``poisons``). Keyword overrides are merged into
+the scenario file; one that is no top-level key of a scenario raises ``TypeError``.
 
 Pickling keeps the scenario, the generator state at the last reset and the actions taken
 since; unpickling rebuilds the episode and replays them, so a copy continues exactly as
@@ -46,8 +48,11 @@ class FlatlandParallelEnv(ParallelEnv):
         self,
         scenario: str | Path | ScenarioSpec = "fruits_poisons",
         render_mode: str | None = None,
+        max_cycles: int | None = None,
         **overrides,
     ):
+        if max_cycles is not None:
+            overrides = with_episode_length(overrides, max_cycles)
         if isinstance(scenario, ScenarioSpec):
             if overrides:
                 raise TypeError("overrides apply to scenario names or files, not to a spec")
@@ -76,6 +81,9 @@ class FlatlandParallelEnv(ParallelEnv):
         }
         self.episode: Episode | None = None
         self.num_steps = 0
+        # Steps after which every agent is truncated; None for no limit (the Gymnasium env
+        # made by gymnasium.make, where the TimeLimit wrapper truncates).
+        self.step_limit: int | None = spec.episode.max_steps
         self._live: list[int] = []
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
@@ -195,7 +203,7 @@ class FlatlandParallelEnv(ParallelEnv):
         rewards, terminated = episode.task.evaluate(self._np_random)
         episode.sensors.observe()
         self.num_steps += 1
-        truncated = self.num_steps >= self.spec.episode.max_steps
+        truncated = self.step_limit is not None and self.num_steps >= self.step_limit
         if truncated or any(terminated[i] for i in live):
             self._live = [i for i in live if not (truncated or terminated[i])]
             for i in live:
@@ -237,10 +245,12 @@ class FlatlandParallelEnv(ParallelEnv):
             "reset_state": self._reset_state,
             "rng_state": None if self._np_random is None else self._np_random.bit_generator.state,
             "log": self._log,
+            "step_limit": self.step_limit,
         }
 
     def __setstate__(self, state: dict) -> None:
         self._setup(state["spec"], state["render_mode"])
+        self.step_limit = state["step_limit"]
         if state["rng_state"] is None:
             return
         self._np_random, _ = seeding.np_random(0)
@@ -253,3 +263,13 @@ class FlatlandParallelEnv(ParallelEnv):
         self._start_episode()
         for checked in state["log"]:
             self._advance(checked)
+
+
+def with_episode_length(overrides: dict, max_cycles: int) -> dict:
+    """``overrides`` with ``episode.max_steps`` set to ``max_cycles`` (PettingZoo's name)."""
+    episode = overrides.get("episode", {})
+    if not isinstance(episode, Mapping):
+        return overrides  # validation reports the bad ``episode``
+    if "max_steps" in episode:
+        raise TypeError("max_cycles and episode.max_steps both set the episode length; give one")
+    return {**overrides, "episode": {**episode, "max_steps": max_cycles}}

@@ -1,7 +1,10 @@
-"""Writing frames to a GIF or a PNG (Pillow; no display needed)."""
+"""Writing frames to a GIF or a PNG (Pillow), or to an MP4 (PyAV, from the ``render``
+extra: its wheel carries FFmpeg's libraries); no display needed."""
 
 from __future__ import annotations
 
+import importlib.util
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -9,6 +12,27 @@ from PIL import Image
 
 GIF_COLORS = 128
 """Size of the one palette shared by every frame (keeps files small)."""
+
+SUFFIXES = (".gif", ".png", ".mp4")
+"""The kinds of file these functions write."""
+
+MP4_CODEC = "libx264"
+"""H.264, which every player reads; it needs frames of even width and height."""
+
+
+def check_writable(path: str | Path) -> None:
+    """Raise ``ValueError`` (before anything is rendered) if ``path`` is no kind of file
+    written here, or an MP4 without PyAV installed."""
+    suffix = Path(path).suffix.lower()
+    if suffix not in SUFFIXES:
+        raise ValueError(
+            f"cannot write {str(path)!r}: its suffix must be one of {', '.join(SUFFIXES)}"
+        )
+    if suffix == ".mp4" and importlib.util.find_spec("av") is None:
+        raise ValueError(
+            f"cannot write {str(path)!r}: MP4 needs PyAV (pip install 'flatland-ma[render]'); "
+            "a .gif or .png needs nothing more"
+        )
 
 
 def save_gif(frames: list[np.ndarray], path: str | Path, fps: float = 30.0) -> Path:
@@ -37,4 +61,26 @@ def save_png(frame: np.ndarray, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     Image.fromarray(frame).save(path)
+    return path
+
+
+def save_mp4(frames: list[np.ndarray], path: str | Path, fps: float = 30.0) -> Path:
+    """Write RGB frames (uint8, H x W x 3) as an H.264 MP4. An odd width or height gains
+    one column or row, a copy of the last, since the codec needs even sizes."""
+    import av  # the render extra
+
+    if not frames:
+        raise ValueError("no frames to write")
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    height, width = frames[0].shape[:2]
+    pad = ((0, height % 2), (0, width % 2), (0, 0))
+    with av.open(str(path), mode="w") as container:
+        stream = container.add_stream(MP4_CODEC, rate=Fraction(fps).limit_denominator(1000))
+        stream.width, stream.height = width + width % 2, height + height % 2
+        stream.pix_fmt = "yuv420p"
+        for frame in frames:
+            image = av.VideoFrame.from_ndarray(np.pad(frame, pad, mode="edge"), format="rgb24")
+            container.mux(stream.encode(image))
+        container.mux(stream.encode())  # flush the frames the encoder still holds
     return path

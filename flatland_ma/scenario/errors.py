@@ -44,6 +44,21 @@ class ScenarioError(ValueError):
         super().__init__("\n".join(str(p) for p in self.problems))
 
 
+class UnknownKeywordError(ScenarioError, TypeError):
+    """A keyword override that is no top-level key of a scenario (e.g. ``frameskip=1``).
+
+    Also a ``TypeError``, as for any unexpected keyword argument in Python: clients probe
+    for optional keywords by catching it (TorchRL's ``GymEnv`` passes ``frameskip``).
+    """
+
+    def __init__(self, problems: list[Problem] | str):
+        if isinstance(problems, str):  # re-raised with more context, as gymnasium.make does
+            self.problems = []
+            Exception.__init__(self, problems)
+            return
+        super().__init__(problems)
+
+
 class SpecError(ValueError):
     """A fault found by a check that knows which key it concerns (e.g. a layout that
     cannot be built); the loader turns it into a located ``Problem``. ``also`` names

@@ -21,6 +21,7 @@ from flatland_ma.scenario.errors import (
     Marks,
     Problem,
     ScenarioError,
+    UnknownKeywordError,
     locate,
 )
 from flatland_ma.scenario.messages import problems_from
@@ -64,7 +65,8 @@ def scenario_path(name: str | Path) -> Path:
 
 
 def load_scenario(name: str | Path = "fruits_poisons", **overrides: Any) -> ScenarioSpec:
-    """Load, merge and validate a scenario by name or path; raise ``ScenarioError``.
+    """Load, merge and validate a scenario by name or path; raise ``ScenarioError``
+    (``UnknownKeywordError``, also a ``TypeError``, for an override that is no top-level key).
 
     This checks the file alone and builds nothing; the checks that need a layout built
     (room to place things, reachability, parts against walls) are ``build.check_scenario``,
@@ -84,12 +86,32 @@ def load_scenario(name: str | Path = "fruits_poisons", **overrides: Any) -> Scen
 
 
 def _load(name: str | Path, overrides: dict, source: str) -> ScenarioSpec:
+    check_keywords(overrides, source)
     raw, marks = read_raw(name)
     if overrides:
         raw = merge(raw, overrides, marks, (), OVERRIDES)
     spec = validate(raw, marks, fallback=source)
     spec._origin = (source, marks)
     return spec
+
+
+def check_keywords(overrides: Mapping, source: str) -> None:
+    """Raise ``UnknownKeywordError`` for override keywords that are no top-level key of a
+    scenario, naming each and the scenario file (nested keys are checked by validation)."""
+    allowed = sorted(ScenarioSpec.model_fields)
+    problems = []
+    for key in overrides:
+        if key in ScenarioSpec.model_fields:
+            continue
+        hint = difflib.get_close_matches(str(key), allowed, n=1)
+        maybe = f" (did you mean {hint[0]!r}?)" if hint else ""
+        message = (
+            f"unknown key {key!r} in the keyword overrides of {source}{maybe}; "
+            f"allowed keys: {', '.join(allowed)}"
+        )
+        problems.append(Problem(OVERRIDES, None, (key,), message))
+    if problems:
+        raise UnknownKeywordError(problems)
 
 
 def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Marks]:
