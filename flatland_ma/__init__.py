@@ -4,28 +4,54 @@ import flatland_ma
 env = flatland_ma.parallel_env("fruits_poisons_multi")   # PettingZoo parallel
 env = flatland_ma.env("fruits_poisons")                  # PettingZoo AEC
 gymnasium.make("flatland_ma/FruitsPoisons-v0")           # Gymnasium, one agent
+
+Importing the package registers the Gymnasium ids (reading the scenario files only); the
+physics, the compiled kernels and the PettingZoo interfaces are imported on first use of
+the names that need them (``parallel_env``, ``env``, ``check_scenario``), so that a
+command such as ``flatland-ma list`` starts quickly.
 """
 
 from __future__ import annotations
 
+import importlib
 from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING
 
-from flatland_ma.build.feasibility import check_scenario
-from flatland_ma.envs.aec import env
-from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.registration import register_gym_ids
 from flatland_ma.scenario.loader import list_scenarios, load_scenario
+
+if TYPE_CHECKING:
+    from flatland_ma.build.feasibility import check_scenario
+    from flatland_ma.envs.aec import env
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+    from flatland_ma.envs.parallel import FlatlandParallelEnv as parallel_env
 
 try:  # the installed distribution's version: pyproject.toml is its one source
     __version__ = version("flatland-ma")
 except PackageNotFoundError:  # a source tree on sys.path, never installed
     __version__ = "0+unknown"
 
-parallel_env = FlatlandParallelEnv
-"""``parallel_env(scenario="fruits_poisons", render_mode=None, max_cycles=None, **overrides)``."""
-
 GYM_IDS = register_gym_ids()
 """The Gymnasium ids registered on import, one per single-agent scenario."""
+
+_LAZY = {
+    "FlatlandParallelEnv": ("flatland_ma.envs.parallel", "FlatlandParallelEnv"),
+    "parallel_env": ("flatland_ma.envs.parallel", "FlatlandParallelEnv"),
+    "env": ("flatland_ma.envs.aec", "env"),
+    "check_scenario": ("flatland_ma.build.feasibility", "check_scenario"),
+}
+"""Names imported on first use: ``parallel_env(scenario="fruits_poisons",
+render_mode=None, max_cycles=None, **overrides)`` is the parallel env's class."""
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        module, attribute = _LAZY[name]
+        value = getattr(importlib.import_module(module), attribute)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'flatland_ma' has no attribute {name!r}")
+
 
 __all__ = [
     "GYM_IDS",
