@@ -27,9 +27,10 @@ from typing import ClassVar
 import pymunk
 
 from flatland_ma.agents.body import AgentBody
+from flatland_ma.registry import Kinds
 from flatland_ma.world.entities import Category, CollisionType, Entity, darker
 
-PART_KINDS: dict[str, type[Part]] = {}
+PART_KINDS = Kinds("flatland_ma.agents", "part")
 """Every part class, by its kind."""
 
 

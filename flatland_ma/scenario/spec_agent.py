@@ -152,7 +152,8 @@ class AgentSpec(Spec):
     max_torque: Annotated[float, Field(strict=True, gt=0, le=MAX_TORQUE)] = 100_000.0
     """Largest torque the agent's motor applies to reach its commanded turn rate."""
     camera: CameraSpec = CameraSpec()
-    """The first-person camera (the agent's one sensor unless ``sensors`` is given)."""
+    """The first-person camera: the agent's one sensor, unless ``sensors`` is given (then
+    this key is not used)."""
     sensors: Annotated[tuple[SensorSpec, ...], Field(min_length=1, max_length=16)] | None = None
     """Several sensors instead of the one ``camera``; their names (type, unless given)
     must differ, and the observation is then a mapping from name to each sensor's."""
@@ -177,8 +178,6 @@ class AgentSpec(Spec):
         for name in names:
             if names.count(name) > 1:
                 raise ValueError(f"two sensors are called {name!r}: give them distinct names")
-        if self.sensors is not None and "camera" in self.model_fields_set:
-            raise ValueError("give cameras in 'sensors' when 'sensors' is given, not 'camera'")
         for arm in self.arms:
             for segment in arm.segments:
                 if segment.min_angle > segment.max_angle:

@@ -25,7 +25,9 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
-SENSOR_KINDS: dict[str, type[Sensor]] = {}
+from flatland_ma.registry import Kinds
+
+SENSOR_KINDS = Kinds("flatland_ma.sensors", "sensor")
 """Every sensor class, by the ``type`` that scenario files give it."""
 
 

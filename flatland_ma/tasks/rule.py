@@ -33,12 +33,13 @@ import numpy as np
 
 from flatland_ma.agents.body import AgentBody
 from flatland_ma.agents.grasp import Hands
+from flatland_ma.registry import Kinds
 from flatland_ma.world.contacts import ContactLog
 from flatland_ma.world.entities import ItemGroup, Rect
 from flatland_ma.world.placement import Placer
 from flatland_ma.world.world import World
 
-RULE_KINDS: dict[str, type[Rule]] = {}
+RULE_KINDS = Kinds("flatland_ma.tasks", "rule")
 """Every rule class that scenario files can name, by its kind."""
 
 

@@ -1,0 +1,97 @@
+"""Agents from their spec: parts (head, arm segments, graspers), sensors, and the body.
+
+The parts' names follow the action layout documented in ``agents/actuators.py``: with one
+arm of one joint, ``arm`` (``arm_left`` / ``arm_right``, ``grasp`` / ``release``); with
+several, ``arm<k>`` and ``arm<k>_joint<j>``; a single grasper's macros are ``grasp`` and
+``release`` whatever the arms, several graspers' ``arm<k>_grasp`` and so on.
+"""
+
+from __future__ import annotations
+
+import math
+
+from flatland_ma.agents.body import AgentBody, make_agent_body
+from flatland_ma.agents.grasp import Grasper
+from flatland_ma.agents.parts import ArmSegment, Head, Part, agent_filter
+from flatland_ma.scenario.spec_agent import AgentSpec
+from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
+from flatland_ma.world.looks import RGB
+
+MOTOR_KEYS = ("radius", "mass", "max_speed", "max_turn_rate", "max_force", "max_torque")
+"""The agent's keys that make its base and motor."""
+
+
+def make_parts(agent: AgentSpec) -> list[Part]:
+    """The agent's parts, in the order of their controls: head, arm segments, graspers."""
+    parts: list[Part] = []
+    if agent.head is not None:
+        parts.append(Head(**agent.head.model_dump()))
+    single = len(agent.arms) == 1
+    tips = []
+    for k, arm in enumerate(agent.arms):
+        label = "arm" if single else f"arm{k}"
+        previous = None
+        for j, seg in enumerate(arm.segments):
+            name = label if single and len(arm.segments) == 1 else f"{label}_joint{j}"
+            previous = ArmSegment(
+                name,
+                f"arms[{k}]",
+                agent.radius,
+                previous,
+                mount=arm.mount,
+                joint_rate=arm.joint_rate,
+                max_torque=arm.max_torque,
+                **seg.model_dump(),
+            )
+            parts.append(previous)
+        if arm.grasper is not None:
+            tips.append((label, f"arms[{k}].grasper", previous, arm.grasper))
+    for label, where, tip, grasper in tips:
+        prefix = "" if len(tips) == 1 else f"{label}_"
+        parts.append(Grasper(f"{label}_grip", prefix, where, tip, **grasper.model_dump()))
+    return parts
+
+
+def footprint(agent: AgentSpec, parts: list[Part]) -> float:
+    """Radius of the disc an agent with its parts needs to start in."""
+    return max([agent.radius, *(part.reach() for part in parts)])
+
+
+def fastest_parts(agent: AgentSpec, parts: list[Part]) -> list[tuple[str, float, float]]:
+    """(part, top speed in units per second, half thickness) for the base and each part,
+    the speed counting the base's motion and every joint turning at once."""
+    turn = math.radians(agent.max_turn_rate)
+    fastest = [("base", agent.max_speed, agent.radius)]
+    for part in parts:
+        fastest.append((part.label, part.top_speed(agent.max_speed, turn), part.half_width()))
+    return fastest
+
+
+def make_sensors(agent: AgentSpec) -> list[Sensor]:
+    """The agent's sensors, from each spec's ``type``."""
+    sensors = []
+    for spec in agent.sensor_specs:
+        values = spec.model_dump(exclude={"type", "name"})
+        sensors.append(SENSOR_KINDS[spec.type](name=spec.name or spec.type, **values))
+    return sensors
+
+
+def make_agent(
+    agent: AgentSpec,
+    index: int,
+    position: tuple[float, float],
+    angle: float,
+    color: RGB,
+    substep_dt: float,
+    step_dt: float,
+) -> AgentBody:
+    """Agent ``index``'s base and parts at ``position`` facing ``angle`` (radians); the
+    parts are built but not yet added to a world (``body.links`` are)."""
+    motor = agent.model_dump(include=set(MOTOR_KEYS))
+    body = make_agent_body(index, position, angle, color, substep_dt, step_dt, **motor)
+    for shape in body.shapes:
+        shape.filter = agent_filter(index)
+    body.parts = make_parts(agent)
+    for part in body.parts:
+        part.build(body)
+    return body

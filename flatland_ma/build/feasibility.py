@@ -1,0 +1,81 @@
+"""The checks that need a scenario's layout or its agents' parts, beyond what the file
+format checks alone: agents with their parts fit in the arena, no part moves fast enough
+to cross a wall in one physics substep, and the scenario builds with room to spare at
+several seeds (placement, reachability, overlaps). The envs and ``flatland-ma validate``
+run them; each fault is located in the file like any other.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flatland_ma.build.bodies import fastest_parts, footprint, make_parts, make_sensors
+from flatland_ma.build.builder import lay_ground, populate
+from flatland_ma.build.capacity import check_capacity
+from flatland_ma.scenario.checks import wall_thicknesses
+from flatland_ma.scenario.errors import Problem, ScenarioError, SpecError
+from flatland_ma.scenario.loader import load_scenario
+from flatland_ma.scenario.schema import ScenarioSpec
+
+CHECK_SEEDS = 4
+"""How many seeds ``check_layout`` builds a scenario with."""
+
+
+def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> ScenarioSpec:
+    """Load a scenario (by name, path or spec) and run every check on it; raise
+    ``ScenarioError`` naming the file, line and key of each fault found."""
+    spec = scenario if isinstance(scenario, ScenarioSpec) else load_scenario(scenario, **overrides)
+    try:
+        check_parts(spec)
+        check_layout(spec)
+    except SpecError as err:
+        raise spec.locate(err) from None
+    except ScenarioError:
+        raise
+    except Exception as err:
+        source = spec._origin[0]
+        message = f"internal error while checking ({type(err).__name__}: {err}); please report it"
+        raise ScenarioError([Problem(source, None, (), message)]) from err
+    return spec
+
+
+def check_parts(spec: ScenarioSpec) -> None:
+    """Agents with their parts fit in the arena; no part can cross a wall in a substep."""
+    agent = spec.agent
+    parts = make_parts(agent)
+    width, height = spec.arena.size
+    reach = footprint(agent, parts)
+    if 2 * reach >= min(width, height):
+        path = ("agent", "arms") if agent.arms else ("agent", "head")
+        raise SpecError(
+            path,
+            f"agents reaching {reach:g} from their centre (with their parts) do not fit in "
+            f"the {width:g} x {height:g} arena",
+        )
+    # Between two contact checks a body moves one substep's travel: a part that can
+    # travel farther than the wall's half thickness plus its own could pass through.
+    substep = spec.physics.dt / spec.physics.substeps
+    for path, thickness in wall_thicknesses(spec):
+        for part, speed, half in fastest_parts(agent, parts):
+            travel = speed * substep
+            if thickness / 2 + half <= travel:
+                raise SpecError(
+                    path,
+                    f"walls {thickness:g} thick can be crossed by an agent's {part}, which "
+                    f"can move {travel:.3g} units per substep; use thicker walls, more "
+                    "physics substeps, or slower motors",
+                )
+
+
+def check_layout(spec: ScenarioSpec) -> None:
+    """Build with a few fixed seeds, checking there is room to spare for what is placed at
+    random: raise ``SpecError`` if the scenario cannot be built reliably."""
+    sensors = [make_sensors(spec.agent) for _ in range(spec.n_agents)]
+    for seed in range(CHECK_SEEDS):
+        rng = np.random.default_rng(seed)
+        site = lay_ground(spec, rng)
+        check_capacity(spec, site.placer)
+        populate(spec, site, rng, sensors)

@@ -1,0 +1,128 @@
+"""The ground of an episode under construction: walls, doors and obstacles, the occupancy
+grid, and where agents start.
+
+Wall and door pieces (from the file and from wall generators) are gathered as plain
+geometry until something needs the physical world: then (``world``, ``grid``) the pieces
+become pymunk bodies, the file's obstacles are placed (each checked clear of everything)
+and the occupancy grid is laid. Pieces added after that are built at once, checked clear
+of what is there, and blocked on the grid. So generators run in file order, each over what
+the file and the generators before it made.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flatland_ma.build.capacity import spawn_groups
+from flatland_ma.build.entities import make_arena_walls, make_door, make_obstacle, make_walls
+from flatland_ma.build.layout import DoorPiece, Layout, WallPiece
+from flatland_ma.scenario.errors import SpecError, format_path
+from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.world.entities import Door, Entity, Obstacle
+from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.world import World
+
+
+class Ground:
+    def __init__(self, spec: ScenarioSpec):
+        self.spec = spec
+        self.walls: list[WallPiece] = []
+        self.door_pieces: list[DoorPiece] = []
+        self.doors: list[Door] = []
+        self.owners: dict = {}
+        """Each solid shape's key path in the scenario, for messages about overlaps."""
+        self._world: World | None = None
+        self._grid: NavGrid | None = None
+        self.start: np.ndarray | None = None
+        """The cells where agents start (every spawn area), once the grid is laid."""
+
+    def add(self, layout: Layout) -> None:
+        """Add wall and door pieces (built at once if the world already stands)."""
+        if self._world is None:
+            self.walls += layout.walls
+            self.door_pieces += layout.doors
+            return
+        self._build(layout.walls, layout.doors, check=True)
+
+    @property
+    def world(self) -> World:
+        if self._world is None:
+            self._materialise()
+        return self._world  # type: ignore[return-value]
+
+    @property
+    def grid(self) -> NavGrid:
+        if self._grid is None:
+            self._materialise()
+        return self._grid  # type: ignore[return-value]
+
+    @grid.setter
+    def grid(self, grid: NavGrid) -> None:
+        self._grid = grid
+
+    def _materialise(self) -> None:
+        spec = self.spec
+        physics = spec.physics
+        world = World(spec.arena.size, physics.dt, physics.substeps, physics.iterations)
+        world.add(make_arena_walls(spec.arena))
+        self._world = world
+        self._build(self.walls, self.door_pieces, check=False)
+        for i, obstacle in enumerate(spec.obstacles):
+            self.place_clear(make_obstacle(obstacle, world.space), ("obstacles", i))
+        grid = NavGrid(spec.arena.size, spec.agent.radius)
+        for entity in world.entities:
+            if entity.blocks_paths:
+                for shape in entity.shapes:
+                    grid.block_shape(shape)
+        self._grid = grid
+        self.start = np.zeros_like(grid.blocked)
+        for group in spawn_groups(spec):
+            self.start |= grid.cells_in(group.spawn.area)
+
+    def _build(self, walls: list[WallPiece], doors: list[DoorPiece], check: bool) -> None:
+        world = self._world
+        built, paths = make_walls(walls, world.space.static_body)
+        for wall in built:
+            self._add(wall, [paths[s] for s in wall.shapes], check)
+        for piece in doors:
+            door = make_door(piece, world.space)
+            self._add(door, [piece.path], check)
+            self.doors.append(door)
+
+    def _add(self, entity: Entity, paths: list[tuple], check: bool) -> None:
+        if check:
+            _check_clear(self.world, entity, paths[0], self.owners, solid_only=entity.fixed)
+        self.world.add(entity)
+        for shape, path in zip(entity.shapes, paths * len(entity.shapes)):
+            self.owners[shape] = path
+        if self._grid is not None and entity.blocks_paths:
+            for shape in entity.shapes:
+                self._grid.block_shape(shape)
+
+    def place_clear(self, entity: Entity, path: tuple) -> None:
+        """Add an entity that must overlap nothing; raise at ``path`` if it does."""
+        self._add(entity, [path], check=True)
+
+
+def _check_clear(
+    world: World, entity: Entity, path: tuple, owners: dict, solid_only: bool = False
+) -> None:
+    """Raise at ``path`` (and at what it overlaps) if the entity overlaps anything; with
+    ``solid_only`` (walls and doors, which meet walls) only obstacles count."""
+    for shape in entity.shapes:
+        shape.cache_bb()
+        for hit in world.space.shape_query(shape):
+            other = owners.get(hit.shape, ())
+            thing = world.entity_of_shape[hit.shape]
+            if solid_only and not isinstance(thing, Obstacle):
+                continue
+            what = (
+                "a door"
+                if isinstance(thing, Door)
+                else "another obstacle"
+                if isinstance(thing, Obstacle)
+                else "a wall"
+            )
+            where = f" ({format_path(other)})" if other else ""
+            also = ((other, f"overlaps {format_path(path)}"),) if other else ()
+            raise SpecError(path, f"overlaps {what}{where}", also)

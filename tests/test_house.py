@@ -1,0 +1,248 @@
+"""The house's seams: layers import downward, loading builds nothing, and sensors, rules,
+parts and generators plug in through one interface each."""
+
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+import pymunk
+import pytest
+from pettingzoo.test import parallel_api_test
+
+import flatland_ma
+from flatland_ma.agents.actuators import Actuator
+from flatland_ma.agents.grasp import Grasper
+from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head
+from flatland_ma.build.bodies import make_parts
+from flatland_ma.build.generators import GENERATOR_KINDS
+from flatland_ma.scenario.errors import ScenarioError
+from flatland_ma.sensors.sensor import SENSOR_KINDS
+from flatland_ma.tasks.rule import RULE_KINDS
+from flatland_ma.world.entities import HingedDoor, Item, SlidingDoor
+from tests.world_helpers import place, walk
+
+PACKAGE = Path(__file__).resolve().parent.parent / "flatland_ma"
+
+FORBIDDEN = {
+    "scenario": ["world", "agents", "sensors", "tasks", "envs", "build", "render", "policies"],
+    "world": ["scenario", "build", "tasks", "agents", "sensors", "envs", "render", "policies"],
+    "sensors": ["scenario", "build", "tasks", "agents", "envs", "render", "policies"],
+    "agents": ["scenario", "build", "tasks", "envs", "render", "policies"],
+    "tasks": ["scenario", "sensors", "build", "envs", "render", "policies"],
+    "build": ["envs", "render", "policies"],
+}
+"""What each layer may not import: only the layers below it (the file format is at the
+bottom and apart: only build/ and what is above it read specs)."""
+
+
+def imports_of(path: Path) -> list[tuple[int, str]]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            found.append((node.lineno, node.module))
+        elif isinstance(node, ast.Import):
+            found += [(node.lineno, alias.name) for alias in node.names]
+    return found
+
+
+@pytest.mark.parametrize("layer", sorted(FORBIDDEN))
+def test_layers_import_only_downward(layer):
+    files = sorted((PACKAGE / layer).rglob("*.py"))
+    assert files
+    wrong = [
+        f"{path.relative_to(PACKAGE)}:{line} imports {module}"
+        for path in files
+        for line, module in imports_of(path)
+        for other in FORBIDDEN[layer]
+        if module == f"flatland_ma.{other}" or module.startswith(f"flatland_ma.{other}.")
+    ]
+    assert wrong == []
+
+
+def test_loading_every_scenario_builds_no_space(monkeypatch):
+    made = []
+    original = pymunk.Space.__init__
+
+    def counting(self, *args, **kwargs):
+        made.append(self)
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(pymunk.Space, "__init__", counting)
+    for name in flatland_ma.list_scenarios():
+        flatland_ma.load_scenario(name)
+    assert made == []
+    flatland_ma.check_scenario("fruits_poisons")  # the feasibility checks do build
+    assert made
+
+
+def test_several_sensors_give_a_dict_observed_in_one_kernel_call():
+    sensors = [
+        {"type": "camera", "name": "front", "rays": 32},
+        {"type": "camera", "name": "wide", "rays": 8, "fov": 300, "range": 100},
+    ]
+    env = flatland_ma.parallel_env("fruits_poisons_multi", agent={"sensors": sensors})
+    space = env.observation_space("agent_0")
+    assert set(space.spaces) == {"front", "wide"}
+    assert space["front"].shape == (32, 4) and space["wide"].shape == (8, 4)
+    observations, _ = env.reset(seed=0)
+    suite = env.episode.sensors
+    assert suite.image.shape == (4 * (32 + 8), 4)  # every ray of every agent in one image
+    for agent, observation in observations.items():
+        assert env.observation_space(agent).contains(observation)
+    # The wide camera sees no farther than its range: depth 1 means nothing within 100.
+    first = suite.per_agent[0][1]
+    assert (suite.distance[suite.slices[first]] <= 100.0 + 1e-9).all()
+    parallel_api_test(flatland_ma.parallel_env("fruits_poisons_multi", agent={"sensors": sensors}))
+
+
+def test_sensor_names_must_differ():
+    with pytest.raises(ScenarioError, match="two sensors are called 'camera'"):
+        flatland_ma.load_scenario("fruits_poisons", agent={"sensors": [{}, {}]})
+    with pytest.raises(ScenarioError, match="mounted on the head needs a 'head'"):
+        flatland_ma.load_scenario("fruits_poisons", agent={"sensors": [{"mount": "head"}]})
+
+
+def test_every_kind_is_found_by_name():
+    assert SENSOR_KINDS["camera"].__name__ == "Camera"
+    assert RULE_KINDS["step_reward"].__name__ == "StepReward"
+    assert RULE_KINDS["contact_reward"].__name__ == "ContactReward"
+    assert GENERATOR_KINDS["maze"].__name__ == "Maze"
+    assert PART_KINDS["grasper"] is Grasper
+    with pytest.raises(KeyError, match="no sensor of kind 'sonar'; known kinds: camera"):
+        SENSOR_KINDS["sonar"]
+
+
+def test_a_step_reward_rule_adds_to_every_step():
+    env = flatland_ma.parallel_env(
+        "fruits_poisons", items=[], obstacles=[], rules=[{"rule": "step_reward", "reward": -0.5}]
+    )
+    env.reset(seed=0)
+    total, infos = walk(env, 10, action=1)  # turning in place: nothing else rewards
+    assert total == pytest.approx(-5.0) and infos["agent_0"]["score"] == pytest.approx(-5.0)
+
+
+def test_a_contact_reward_rule_rewards_only_steps_in_contact():
+    rules = [{"rule": "contact_reward", "reward": -1.0}]
+    env = flatland_ma.parallel_env("fruits_poisons", items=[], obstacles=[], rules=rules)
+    env.reset(seed=0)
+    place(env, 0, 150.0, 150.0, 0.0)
+    free, _ = walk(env, 5, action=1)
+    assert free == 0.0
+    place(env, 0, 300.0 - 10.5, 150.0, 0.0)  # against the east wall, facing it
+    bumped, _ = walk(env, 5, action=0)
+    assert bumped == pytest.approx(-5.0)
+
+
+def test_rules_apply_in_the_documented_order():
+    env = flatland_ma.parallel_env("fruits_poisons", rules=[{"rule": "step_reward", "reward": 1}])
+    env.reset(seed=0)
+    kinds = [type(rule).__name__ for rule in env.episode.task.rules]
+    assert kinds == [
+        "ItemRule",
+        "ZoneRule",
+        "DoorRule",
+        "DeliveryRule",
+        "StepReward",
+        "EndingRule",
+    ]
+
+
+def test_the_camera_sees_an_item_moved_through_the_world_without_any_sync():
+    env = flatland_ma.parallel_env("fruits_poisons", obstacles=[])
+    env.reset(seed=0)
+    place(env, 0, 150.0, 150.0, 0.0)
+    item = next(e for e in env.episode.world.entities if isinstance(e, Item))
+    env.episode.world.move_static(item, 200.0, 150.0)  # straight ahead, 50 away
+    env.episode.sensors.observe()
+    sensors = env.episode.sensors
+    middle = sensors.slices[0].start + 32
+    assert sensors.hit_entity[middle] == item.index
+    assert sensors.distance[middle] == pytest.approx(50.0 - item.radius, abs=0.5)
+    env.episode.world.withdraw(item)
+    env.episode.sensors.observe()
+    assert sensors.hit_entity[middle] != item.index
+
+
+def test_door_kinds_answer_how_they_open():
+    door = SlidingDoor(body=None, shapes=(), color=(0, 0, 0), locked=True, key_name="gold")
+    assert not door.opens_to_touch(set()) and door.opens_to_touch({"gold"})
+    assert door.opens_to_key("gold") and not door.opens_to_key("iron")
+    assert door.needs_opener and door.blocks(set()) and not door.blocks({"gold"})
+    closed = SlidingDoor(body=None, shapes=(), color=(0, 0, 0))
+    assert closed.opens_to_touch(set()) and not closed.needs_opener
+    switched = SlidingDoor(body=None, shapes=(), color=(0, 0, 0), switch_zone="plate")
+    assert not switched.opens_to_touch({"gold"}) and switched.needs_opener
+    hinged = HingedDoor(body=pymunk.Body(), shapes=(), color=(0, 0, 0), swing=1.0)
+    assert hinged.swings and not hinged.opens_to_touch(set()) and not hinged.needs_opener
+    hinged.body.angle = 0.5
+    assert hinged.blocks(set())  # swung aside, it stands in the way
+
+
+def test_parts_make_the_action_layout():
+    spec = flatland_ma.load_scenario("tug_of_war").agent
+    parts = make_parts(spec)
+    assert [type(p) for p in parts] == [Head, ArmSegment, Grasper]
+    discrete = Actuator("discrete", parts)
+    assert discrete.names == (
+        "forward",
+        "rotate_left",
+        "rotate_right",
+        "stay",
+        "head_left",
+        "head_right",
+        "arm_left",
+        "arm_right",
+        "grasp",
+        "release",
+    )
+    continuous = Actuator("continuous", parts)
+    assert continuous.names == ("longitudinal", "lateral", "angular", "head", "arm", "arm_grip")
+    # Reach: the arm's tip is the base's radius, the segment and the grasper away.
+    arm = spec.arms[0]
+    tip = spec.radius + arm.segments[0].length + arm.grasper.radius
+    assert max(p.reach() for p in parts) == pytest.approx(tip)
+
+
+def test_two_arms_name_their_joints_and_hands():
+    arm = {"segments": [{"length": 10}, {"length": 8}]}
+    spec = flatland_ma.load_scenario("fetch_object", agent={"arms": [arm, {"mount": 90}]}).agent
+    names = Actuator("continuous", make_parts(spec)).names
+    assert names[3:] == ("arm0_joint0", "arm0_joint1", "arm1_joint0", "arm0_grip", "arm1_grip")
+    macros = Actuator("discrete", make_parts(spec)).names
+    assert "arm0_grasp" in macros and "arm1_release" in macros and "grasp" not in macros
+
+
+def test_generators_run_in_file_order():
+    gens = [
+        {"generator": "grid_rooms", "rows": 2, "cols": 2},
+        {"generator": "random_obstacles", "count": 2, "gap": 30},
+    ]
+    for order in (gens, gens[::-1]):
+        env = flatland_ma.parallel_env("fruits_poisons", obstacles=[], layout={"generators": order})
+        env.reset(seed=3)
+        kinds = [type(e).__name__ for e in env.episode.world.entities[1:]]
+        kinds = [k for k in kinds if k in ("Wall", "Obstacle")]
+        first = "Wall" if order[0]["generator"] == "grid_rooms" else "Obstacle"
+        assert kinds[0] == first and len(set(kinds)) == 2
+        # Whatever the order, nothing overlaps: each generator works over what stands.
+        space = env.episode.world.space
+        for entity in env.episode.world.entities:
+            if type(entity).__name__ == "Obstacle":
+                hits = [h for s in entity.shapes for h in space.shape_query(s)]
+                assert all(h.shape.sensor or h.shape.body is not space.static_body for h in hits)
+
+
+def test_a_zone_entry_is_logged_once_per_entry():
+    env = flatland_ma.parallel_env("explore_goal")
+    env.reset(seed=0)
+    (zone,) = env.episode.world.zones
+    x0, y0, x1, y1 = zone.rect
+    place(env, 0, x0 - 15.0, (y0 + y1) / 2, 0.0)
+    entries = 0
+    for _ in range(12):
+        env.step({"agent_0": 0})
+        entries += sum(z is zone for _, z in env.episode.world.log.entered)
+    assert entries == 1
+    assert math.isclose(env.episode.task.records[0].score, zone.reward) or zone.once
+    assert np.isfinite(env.episode.task.records[0].score)
