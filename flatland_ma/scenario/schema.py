@@ -39,6 +39,7 @@ from flatland_ma.scenario.spec_objects import (
     ObstacleBase,
     PolygonObstacle,
 )
+from flatland_ma.scenario.spec_reference import ReferenceSpec
 from flatland_ma.scenario.spec_world import (
     ArenaSpec,
     CorridorSpec,
@@ -78,6 +79,7 @@ __all__ = [
     "PhysicsSpec",
     "PolygonObstacle",
     "RandomObstaclesSpec",
+    "ReferenceSpec",
     "RoomSpec",
     "ScenarioSpec",
     "SpawnSpec",
@@ -138,6 +140,9 @@ class ScenarioSpec(Spec):
     """What every agent is: body, motor, camera, actions, start."""
     teams: tuple[TeamSpec, ...] = ()
     """Teams of agents, in agent order; their sizes add up to ``n_agents``."""
+    reference: ReferenceSpec | None = None
+    """The scripted solver that proves the task solvable and the score it must reach
+    (every shipped scenario has one; the env does not read it)."""
 
     _origin: tuple[str, dict] = PrivateAttr(default=("<spec>", {}))
     """The file it was read from and where each key path was written (see ``locate``)."""
