@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow bench docs lint clean reproduce reproduce-multi results
+.PHONY: demo test test-slow bench docs reference lint clean reproduce reproduce-multi results
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,8 +28,13 @@ test-slow: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/flatland-ma bench
 
-# Pictures of the scenarios for the README and docs/.
-docs: $(STAMP)
+# The scenario format's reference and the JSON schema shipped for editors, both written
+# from the models (tests/test_scenario_schema.py checks that they are up to date).
+reference: $(STAMP)
+	$(BIN)/python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
+
+# Pictures of the scenarios for the README and docs/ (after the format reference).
+docs: reference
 	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif
 	$(BIN)/flatland-ma record fruits_poisons_multi --steps 120 --seed 3 --out docs/images/fruits_poisons_multi.png
 	for s in $$($(BIN)/python -c "import flatland_ma; print(' '.join(flatland_ma.list_scenarios()))"); do \
@@ -38,7 +43,6 @@ docs: $(STAMP)
 	for s in push_box fetch_object key_carry coop_carry tug_of_war; do \
 		$(BIN)/flatland-ma record $$s --policy carrier --steps 300 --every 3 --seed 1 --out docs/images/tasks/$$s.gif || exit 1; \
 	done
-	$(BIN)/python -m flatland_ma.scenario.reference > docs/scenarios.md
 
 # The paper's experiment: DQN, A3C and DFP on fruits_poisons, SEEDS seeds of 250k steps
 # each, WORKERS seeds at a time (runs/ resumes where it stopped); A3C also with lr 1e-4,

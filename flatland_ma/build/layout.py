@@ -240,6 +240,4 @@ def axis_point(axis: int, line: float, along: float) -> Point:
 
 
 def axis_piece(axis, line, a, b, t, color, texture, path) -> WallPiece:
-    return WallPiece(
-        axis_point(axis, line, a), axis_point(axis, line, b), t, color, texture, path
-    )
+    return WallPiece(axis_point(axis, line, a), axis_point(axis, line, b), t, color, texture, path)

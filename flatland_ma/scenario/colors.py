@@ -1,6 +1,7 @@
 """Colours in scenario files: a name, a ``"#rrggbb"`` string or ``[r, g, b]`` in 0-255.
 
-Every colour is stored as a tuple of three floats in [0, 1].
+Every colour is stored as a tuple of three floats in [0, 1], and written back (``model_dump``,
+defaults in the JSON schema) as its name, or else as ``"#rrggbb"``.
 """
 
 from __future__ import annotations
@@ -60,3 +61,31 @@ def parse_color(value: object) -> RGB:
             raise ValueError(f"colour {value!r} has a component outside 0-255")
         return tuple(c / 255.0 for c in value)  # type: ignore[return-value]
     raise ValueError(f"colour {value!r} must be a name, '#rrggbb' or [r, g, b] with 0-255 integers")
+
+
+def color_text(color: object) -> str:
+    """A colour as a file would write it: its name if it has one, else ``"#rrggbb"``.
+
+    Takes a stored colour (three floats) or anything ``parse_color`` reads.
+    """
+    stored = isinstance(color, tuple) and all(isinstance(c, float) for c in color)
+    rgb = color if stored else parse_color(color)
+    ints = tuple(round(c * 255) for c in rgb)  # type: ignore[union-attr]
+    names = [name for name, value in NAMED_COLORS_255.items() if value == ints]
+    return names[0] if names else "#{:02x}{:02x}{:02x}".format(*ints)
+
+
+COLOR_JSON_SCHEMA: dict = {
+    "anyOf": [
+        {"type": "string", "enum": list(NAMED_COLORS_255)},
+        {"type": "string", "pattern": "^#[0-9a-fA-F]{6}$"},
+        {
+            "type": "array",
+            "items": {"type": "integer", "minimum": 0, "maximum": 255},
+            "minItems": 3,
+            "maxItems": 3,
+        },
+    ]
+}
+"""What a colour may be in a file, for the JSON schema (pydantic's own would say three
+numbers: the stored form). Names are matched in any case by the loader, in lower case here."""

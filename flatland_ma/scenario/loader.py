@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Mapping
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -28,14 +29,25 @@ from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
+SCENARIO_PACKAGE = "flatland_ma.scenarios"
+"""The package the shipped scenario files install as: ``pyproject.toml`` maps the
+top-level ``scenarios/`` folder onto it."""
+SCHEMA_FILE = "scenario.schema.json"
+"""The JSON schema of scenario files (for editors), shipped beside the scenarios."""
 SCENARIO_SUFFIXES = (".yaml", ".yml")
 OVERRIDES = "<overrides>"
 _MAX_EXTENDS = 8
 
 
 def scenario_dir() -> Path:
-    """The folder of scenario files shipped with the package."""
-    return Path(__file__).resolve().parent.parent / "scenarios"
+    """The folder of scenario files shipped with the package, wherever it is installed
+    (pip unpacks wheels, so it is a folder on disk in editable and wheel installs alike)."""
+    return Path(str(resources.files(SCENARIO_PACKAGE)))
+
+
+def schema_path() -> Path:
+    """The shipped JSON schema of scenario files, for editors' completion and checks."""
+    return scenario_dir() / SCHEMA_FILE
 
 
 def list_scenarios() -> list[str]:

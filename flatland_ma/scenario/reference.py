@@ -1,57 +1,23 @@
-"""The scenario format reference (``docs/scenarios.md``), written from the schema itself.
+"""The scenario format's reference, written from the schema itself: ``docs/scenarios.md``
+for authors and ``scenario.schema.json`` (shipped beside the scenarios) for editors.
 
-    python -m flatland_ma.scenario.reference > docs/scenarios.md
+    python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 
-Every field's type, range and default come from the models, and its meaning from the
-docstring under it, so the reference cannot drift from what the loader accepts.
+Both come from pydantic's JSON schema of ``ScenarioSpec`` (``json_schema.py``). Every
+model reached from the top gets its section here, found by walking that schema (no list
+to keep up); every field's type, range and default come from the models, and its meaning
+from the docstring under it, so neither can drift from what the loader accepts.
 """
 
 from __future__ import annotations
 
-import types
-import typing
-from typing import Annotated, Literal, Union
+import argparse
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
 
-import annotated_types as at
-from pydantic import BaseModel
-from pydantic.fields import FieldInfo
-
-from flatland_ma.scenario import schema as s
-from flatland_ma.scenario.colors import NAMED_COLORS_255, parse_color
-
-SECTIONS: list[tuple[str, type[BaseModel], str]] = [
-    ("Top level", s.ScenarioSpec, "The keys a scenario file may have at its top."),
-    ("episode", s.EpisodeSpec, ""),
-    ("physics", s.PhysicsSpec, ""),
-    ("arena", s.ArenaSpec, ""),
-    ("arena.wall", s.WallStyle, "The look of the boundary walls, and the default of every wall."),
-    ("walls[]", s.WallSpec, ""),
-    ("rooms[]", s.RoomSpec, ""),
-    ("rooms[].openings[]", s.OpeningSpec, ""),
-    ("corridors[]", s.CorridorSpec, ""),
-    ("doors[] and openings[].door", s.DoorSpec, ""),
-    ("zones[]", s.ZoneSpec, ""),
-    ("layout", s.LayoutSpec, ""),
-    ("layout.generators[]: grid_rooms", s.GridRoomsSpec, ""),
-    ("layout.generators[]: maze", s.MazeSpec, ""),
-    ("layout.generators[]: random_obstacles", s.RandomObstaclesSpec, ""),
-    ("obstacles[]", s.ObstacleBase, "Every obstacle has these keys, and those of its `shape`."),
-    ("obstacles[]: circle", s.CircleObstacle, ""),
-    ("obstacles[]: box", s.BoxObstacle, ""),
-    ("obstacles[]: polygon", s.PolygonObstacle, ""),
-    ("items[]", s.ItemSpec, ""),
-    ("texture", s.TextureSpec, ""),
-    ("agent", s.AgentSpec, "The body, motor, camera and start of every agent."),
-    ("agent.spawn", s.SpawnSpec, ""),
-    ("agent.camera and agent.sensors[]: camera", s.CameraSpec, ""),
-    ("agent.head", s.HeadSpec, ""),
-    ("agent.arms[]", s.ArmSpec, ""),
-    ("agent.arms[].segments[]", s.ArmSegmentSpec, ""),
-    ("agent.arms[].grasper", s.GrasperSpec, ""),
-    ("teams[]", s.TeamSpec, ""),
-    ("rules[]: step_reward", s.StepRewardSpec, ""),
-    ("rules[]: contact_reward", s.ContactRewardSpec, ""),
-]
+from flatland_ma.scenario.colors import NAMED_COLORS_255
+from flatland_ma.scenario.json_schema import VALUE_TYPES, file_schema, schema_text
 
 INTRO = """\
 # Scenario files
@@ -59,8 +25,9 @@ INTRO = """\
 A scenario is a YAML file: the world (arena, walls, rooms, corridors, doors, zones,
 generated layouts, obstacles, items), the agents (how many, their bodies, cameras and
 actions), the task (rewards, goals, keys) and the episode length. The shipped ones are in
-`flatland_ma/scenarios/`; `flatland-ma list` prints them, `flatland-ma validate FILE...`
-checks files.
+`scenarios/` (installed as `flatland_ma/scenarios/`), each with the reference solver that
+proves it solvable; `flatland-ma list` prints them, `flatland-ma validate FILE...` checks
+files.
 
 - **Coordinates**: x to the right, y up, origin at the bottom-left corner of the playing
   area; lengths in world units (the default agent has radius 10), angles in degrees
@@ -89,6 +56,14 @@ checks files.
 - **Limits**: arena sides, wall thicknesses and widths are at most 10,000; a maze has at
   most 10,000 cells; a file may nest 32 levels deep and expand (through aliases) to at
   most 100,000 values.
+- **Editor completion**: `scenario.schema.json`, shipped beside the scenarios, is the JSON
+  schema of this format, written from the same models as this page (`python -c "import
+  flatland_ma.scenario.loader as s; print(s.schema_path())"` prints where it is installed).
+  Editors that use yaml-language-server (such as VS Code's YAML extension) complete and
+  check the keys of a file that starts with the line
+  `# yaml-language-server: $schema=PATH/TO/scenario.schema.json`. The schema sees a file on
+  its own: keys it takes from another through `extends`, and the checks of what lies where
+  (above), are the loader's.
 - **Random draws** (layouts drawn per episode, spawns, respawns, randomly placed zones) all
   come from the generator seeded by `reset(seed=...)`.
 
@@ -113,111 +88,253 @@ episode: {max_steps: 500}
 """
 
 
+@dataclass
+class Section:
+    """One table of the reference: the keys of a model, or those that every member of a
+    union of models shares alike."""
+
+    key: str
+    """The model's name in ``$defs`` (members of a union joined by ``|``; "" for the top)."""
+    schema: dict
+    """Its JSON schema, with ``properties`` and ``required``."""
+    tag: str = ""
+    """For a member of a union, its tag, e.g. ``shape: circle``."""
+    skip: frozenset[str] = frozenset()
+    """Keys left to the union's own section."""
+    note: str = ""
+    """A sentence after the model's docstring."""
+    uses: list[str] = field(default_factory=list)
+    """The key paths that lead to it, shortest first, e.g. ``rooms[].openings[]``."""
+
+    @property
+    def path(self) -> str:
+        return self.uses[0] if self.uses else ""
+
+
+def sections(schema: dict) -> list[Section]:
+    """Every model reached from the top of ``schema``, each after the first one holding it,
+    with the key paths that lead to it (found breadth first, so shortest first)."""
+    root = Section("", schema)
+    found = {"": root}
+    queue = [root]
+    while queue:
+        for use, child in _links(queue.pop(0), schema["$defs"]):
+            known = found.setdefault(child.key, child)
+            if use not in known.uses:
+                known.uses.append(use)
+            if known is child:
+                queue.append(child)
+    order: list[Section] = []
+
+    def walk(section: Section) -> None:
+        order.append(section)
+        for _, child in _links(section, schema["$defs"]):
+            if all(s.key != child.key for s in order):
+                walk(found[child.key])
+
+    walk(root)
+    return order
+
+
+def _links(section: Section, defs: dict) -> Iterator[tuple[str, Section]]:
+    """The sections that a section's keys lead to, each with its key path."""
+    for key, prop in section.schema["properties"].items():
+        if key in section.skip:
+            continue
+        path = f"{section.path}.{key}" if section.path else key
+        for suffix, members, tag_key in _refs(prop):
+            members = [(n, tag) for n, tag in members if defs[n].get("type") == "object"]
+            if tag_key is None:
+                yield from ((path + suffix, Section(n, defs[n])) for n, _ in members)
+                continue
+            shared = _shared_keys([defs[n] for n, _ in members], tag_key)
+            if shared:
+                first = defs[members[0][0]]
+                union = {
+                    "properties": {k: first["properties"][k] for k in shared},
+                    "required": [k for k in first.get("required", []) if k in shared],
+                }
+                note = f"Every entry has these keys, and those of its `{tag_key}`."
+                key = "|".join(n for n, _ in members)
+                yield path + suffix, Section(key, union, note=note)
+            for name, tag in members:
+                yield (
+                    path + suffix,
+                    Section(name, defs[name], tag=f"{tag_key}: {tag}", skip=frozenset(shared)),
+                )
+
+
+Members = list[tuple[str, str]]
+"""Models in ``$defs`` with their tags (empty outside a tagged union)."""
+
+
+def _refs(prop: dict, suffix: str = "") -> Iterator[tuple[str, Members, str | None]]:
+    """The models a key's schema holds: (``[]`` per list level and ``.*`` per mapping of
+    names, the models with their tags, the tag key if they are a tagged union's members)."""
+    if "$ref" in prop:
+        yield suffix, [(_name(prop["$ref"]), "")], None
+    elif "discriminator" in prop:
+        tags: dict[str, list[str]] = {}
+        for tag, ref in prop["discriminator"].get("mapping", {}).items():
+            tags.setdefault(_name(ref), []).append(str(tag))
+        names = [_name(option["$ref"]) for option in prop["oneOf"] if "$ref" in option]
+        members = [(n, " / ".join(tags.get(n, ["..."]))) for n in names]
+        yield suffix, members, prop["discriminator"]["propertyName"]
+    for option in prop.get("anyOf", []):
+        yield from _refs(option, suffix)
+    if isinstance(prop.get("items"), dict):
+        yield from _refs(prop["items"], suffix + "[]")
+    if isinstance(prop.get("additionalProperties"), dict):
+        yield from _refs(prop["additionalProperties"], suffix + ".*")
+
+
+def _name(ref: str) -> str:
+    return ref.rsplit("/", 1)[-1]
+
+
+def _shared_keys(members: list[dict], tag_key: str) -> list[str]:
+    """The keys (but the tag) that every member of a union has, with the same schema."""
+    first, *others = members
+    return [
+        k
+        for k, v in first["properties"].items()
+        if k != tag_key and all(o["properties"].get(k) == v for o in others)
+    ]
+
+
 def render() -> str:
+    """``docs/scenarios.md``."""
     names = ", ".join(sorted(NAMED_COLORS_255))
     parts = [INTRO.replace("COLOR_NAMES", names)]
-    for title, model, intro in SECTIONS:
-        parts.append(_section(title, model, intro))
+    parts += [_table(section) for section in sections(file_schema())]
     return "\n".join(parts)
 
 
-def _section(title: str, model: type[BaseModel], intro: str) -> str:
-    doc = " ".join((model.__doc__ or "").split()) if model.__doc__ != BaseModel.__doc__ else ""
-    lines = [f"## `{title}`", ""]
-    for text in (doc, intro):
-        if text and not text.startswith("Base of every"):
-            lines += [text, ""]
+def _table(section: Section) -> str:
+    lines = [f"## {_title(section)}", ""]
+    for text in (section.schema.get("description", ""), section.note, _where(section)):
+        if text:
+            lines += [" ".join(text.split()), ""]
     lines += ["| key | type | default | meaning |", "|---|---|---|---|"]
-    shared = model is not s.ObstacleBase and issubclass(model, s.ObstacleBase)
-    skip = set(s.ObstacleBase.model_fields) if shared else set()
-    for name, field in model.model_fields.items():
-        if name in skip:
+    required = section.schema.get("required", [])
+    for key, prop in section.schema["properties"].items():
+        if key in section.skip:
             continue
-        kind = _describe(field.annotation, field.metadata)
-        meaning = " ".join((field.description or "").split()).replace("|", "\\|")
-        lines.append(f"| `{name}` | {kind} | {_default(field)} | {meaning} |")
+        meaning = " ".join(prop.get("description", "").split()).replace("|", "\\|")
+        default = "*required*" if key in required else _default(prop)
+        lines.append(f"| `{key}` | {_describe(prop)} | {default} | {meaning} |")
     return "\n".join(lines) + "\n"
 
 
-def _default(field: FieldInfo) -> str:
-    if field.is_required():
-        return "*required*"
-    value = field.default
-    if isinstance(value, BaseModel):
-        return "see its section"
-    if value is None:
-        return "none"
-    if isinstance(value, bool):
-        return f"`{str(value).lower()}`"
-    if isinstance(value, float):
-        return f"`{value:g}`"
-    if value == "":
-        return '`""`'
-    if isinstance(value, tuple):
-        return (
-            "`[" + ", ".join(str(v) if not isinstance(v, float) else f"{v:g}" for v in value) + "]`"
-        )
-    return f"`{value}`"
+def _title(section: Section) -> str:
+    if not section.uses:
+        return "Top level"
+    key = _common_key(section)
+    title = f"`{key}`" if key else " and ".join(f"`{use}`" for use in section.uses)
+    return title + (f" with `{section.tag}`" if section.tag else "")
 
 
-def _describe(annotation, metadata=()) -> str:
-    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
-    if any(getattr(m, "func", None) is parse_color for m in metadata):
-        return "colour"
-    if any(getattr(getattr(m, "func", None), "__name__", "") == "_ordered" for m in metadata):
-        return "rectangle `[x0, y0, x1, y1]`"
-    if origin is Annotated:
-        extra = []
-        for meta in args[1:]:
-            extra += meta.metadata if isinstance(meta, FieldInfo) else [meta]
-        return _describe(args[0], list(metadata) + extra)
-    if origin in (Union, types.UnionType):
-        options = [a for a in args if a is not type(None)]
-        models = [a for a in options if isinstance(a, type) and issubclass(a, BaseModel)]
-        if len(models) > 1 and len(models) == len(options):
-            return "mapping"
-        text = " or ".join(_describe(a, metadata) for a in options)
-        return text + (" or null" if len(options) < len(args) else "")
-    if origin is Literal:
-        return "one of " + ", ".join(f"`{a}`" for a in args)
-    if origin is tuple:
-        if len(args) == 2 and args[1] is Ellipsis:
-            return f"list of {_describe(args[0])}" + _length(metadata)
-        inner = [_describe(a) for a in args]
+def _where(section: Section) -> str:
+    """For a model under one key in many places: those places."""
+    key = _common_key(section)
+    if not key:
+        return ""
+    places = ", ".join(f"`{use.rsplit('.', 1)[0]}`" for use in section.uses)
+    return f"The `{key}` of {places}."
+
+
+def _common_key(section: Section) -> str | None:
+    """The key a model is under, when it is under the same key in more than two places."""
+    keys = {use.rsplit(".", 1)[-1] for use in section.uses}
+    return keys.pop() if len(section.uses) > 2 and len(keys) == 1 else None
+
+
+def _describe(prop: dict) -> str:
+    """A key's type in words, with its bounds."""
+    if "$ref" in prop:
+        name = _name(prop["$ref"])
+        return VALUE_TYPES[name][1] if name in VALUE_TYPES else "mapping"
+    if "discriminator" in prop:
+        return "mapping"
+    if "const" in prop:
+        return f"`{prop['const']}`"
+    if "enum" in prop:
+        return "one of " + ", ".join(f"`{v}`" for v in prop["enum"])
+    if "anyOf" in prop:
+        options = [o for o in prop["anyOf"] if o.get("type") != "null"]
+        null = " or null" if len(options) < len(prop["anyOf"]) else ""
+        return " or ".join(_describe(o) for o in options) + null
+    kind = prop.get("type")
+    if kind == "array" and "prefixItems" in prop:
+        inner = [_describe(item) for item in prop["prefixItems"]]
         if len(set(inner)) == 1:
             return f"[{len(inner)} x {inner[0]}]"
         return "[" + ", ".join(inner) + "]"
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return "mapping"
-    names = {bool: "true / false", int: "integer", float: "number", str: "text"}
-    text = names.get(annotation, getattr(annotation, "__name__", str(annotation)))
-    if annotation is str and any(getattr(m, "pattern", None) for m in metadata):
-        text = "name"
-    return text + _bounds(metadata)
+    if kind == "array":
+        return f"list of {_describe(prop.get('items', {}))}" + _length(prop)
+    if kind == "object" and isinstance(prop.get("additionalProperties"), dict):
+        return f"mapping of names to {_describe(prop['additionalProperties'])}"
+    if kind == "string":
+        return ("name" if "pattern" in prop else "text") + _bounds(prop)
+    words = {"boolean": "true / false", "integer": "integer", "number": "number"}
+    return words.get(kind, "mapping" if kind == "object" else "anything") + _bounds(prop)
 
 
-def _bounds(metadata) -> str:
-    marks = []
-    for m in metadata:
-        for cls, sign, attr in (
-            (at.Gt, ">", "gt"),
-            (at.Ge, ">=", "ge"),
-            (at.Lt, "<", "lt"),
-            (at.Le, "<=", "le"),
-        ):
-            if isinstance(m, cls):
-                value = getattr(m, attr)
-                shown = f"{int(value):,}" if float(value).is_integer() else f"{value:g}"
-                marks.append(f"{sign} {shown}")
+def _bounds(prop: dict) -> str:
+    signs = [
+        ("exclusiveMinimum", ">"),
+        ("minimum", ">="),
+        ("exclusiveMaximum", "<"),
+        ("maximum", "<="),
+    ]
+    marks = [f"{sign} {_number(prop[key])}" for key, sign in signs if key in prop]
     return f" ({', '.join(marks)})" if marks else ""
 
 
-def _length(metadata) -> str:
-    for m in metadata:
-        if isinstance(m, at.MinLen) and m.min_length:
-            return f" (at least {m.min_length})"
-    return ""
+def _length(prop: dict) -> str:
+    marks = []
+    if prop.get("minItems"):
+        marks.append(f"at least {_number(prop['minItems'])}")
+    if "maxItems" in prop:
+        marks.append(f"at most {_number(prop['maxItems'])}")
+    return f" ({', '.join(marks)})" if marks else ""
+
+
+def _number(value: float) -> str:
+    return f"{int(value):,}" if float(value).is_integer() else f"{value:g}"
+
+
+def _default(prop: dict) -> str:
+    value = prop.get("default")
+    if value is None:
+        return "none"
+    if value == {}:
+        return "`{}`"
+    if isinstance(value, dict):
+        return "see its section"
+    if isinstance(value, list) and value and all(isinstance(v, dict) for v in value):
+        return "one entry (see its section)" if len(value) == 1 else "see its section"
+    if isinstance(value, bool):
+        return f"`{str(value).lower()}`"
+    if value == "":
+        return '`""`'
+    if isinstance(value, list):
+        return "`[" + ", ".join(_scalar(v) for v in value) + "]`"
+    return f"`{_scalar(value)}`"
+
+
+def _scalar(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("markdown", type=Path, help="where to write the reference")
+    parser.add_argument("schema", type=Path, help="where to write the JSON schema")
+    args = parser.parse_args(argv)
+    args.markdown.write_text(render(), encoding="utf-8")
+    args.schema.write_text(schema_text(), encoding="utf-8")
 
 
 if __name__ == "__main__":
-    print(render(), end="")
+    main()

@@ -34,6 +34,7 @@ from flatland_ma.scenario.spec_objects import (
     ObstacleBase,
     PolygonObstacle,
 )
+from flatland_ma.scenario.spec_reference import ReferenceSpec
 from flatland_ma.scenario.spec_rules import ContactRewardSpec, RuleSpec, StepRewardSpec
 from flatland_ma.scenario.spec_world import (
     ArenaSpec,
@@ -77,6 +78,7 @@ __all__ = [
     "PhysicsSpec",
     "PolygonObstacle",
     "RandomObstaclesSpec",
+    "ReferenceSpec",
     "RoomSpec",
     "ScenarioSpec",
     "SpawnSpec",
@@ -140,6 +142,9 @@ class ScenarioSpec(Spec):
     rules: tuple[RuleSpec, ...] = ()
     """Rules added to the task, applied in order after what items, zones, doors and
     deliveries do, and before the episode's ending is decided."""
+    reference: ReferenceSpec | None = None
+    """The scripted solver that proves the task solvable and the score it must reach
+    (every shipped scenario has one; the env does not read it)."""
 
     _origin: tuple[str, dict] = PrivateAttr(default=("<spec>", {}))
     """The file it was read from and where each key path was written (see ``locate``)."""

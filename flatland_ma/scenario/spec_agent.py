@@ -122,6 +122,8 @@ class ArmSpec(Spec):
 
 
 class AgentSpec(Spec):
+    """The body, motor, camera and start of every agent."""
+
     radius: Positive = 10.0
     """Agents are discs of this radius."""
     mass: Positive = 1.0

@@ -25,6 +25,8 @@ from flatland_ma.scenario.types import (
 
 
 class WallStyle(Spec):
+    """The look of the boundary walls, and the default of every wall."""
+
     thickness: Length = 10.0
     """Thickness of the boundary walls (outside the playing area) and default of every wall."""
     color: Color = "gray"

@@ -5,9 +5,17 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PlainSerializer,
+    WithJsonSchema,
+)
 
-from flatland_ma.scenario.colors import parse_color
+from flatland_ma.scenario.colors import COLOR_JSON_SCHEMA, color_text, parse_color
 
 MAX_ARENA_SIDE = 10_000.0
 """The longest side an arena may have, in world units (the largest shipped one is 800):
@@ -22,7 +30,13 @@ UnitInterval = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=Fal
 Flag = Annotated[bool, Field(strict=True)]
 Vec2 = tuple[Real, Real]
 Size2 = tuple[Positive, Positive]
-Color = Annotated[tuple[float, float, float], BeforeValidator(parse_color)]
+Color = Annotated[
+    tuple[float, float, float],
+    BeforeValidator(parse_color),
+    PlainSerializer(color_text),
+    WithJsonSchema(COLOR_JSON_SCHEMA),
+]
+"""A colour: written as a name, ``"#rrggbb"`` or ``[r, g, b]``; stored as three floats."""
 Name = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
 
 
@@ -33,7 +47,16 @@ def _ordered(rect: tuple[float, float, float, float]) -> tuple[float, float, flo
     return rect
 
 
-Rect = Annotated[tuple[Real, Real, Real, Real], AfterValidator(_ordered)]
+RECT_JSON_SCHEMA: dict = {
+    "type": "array",
+    "prefixItems": [{"type": "number", "title": corner} for corner in ("x0", "y0", "x1", "y1")],
+    "minItems": 4,
+    "maxItems": 4,
+}
+"""A rectangle in the JSON schema, each number named for editors."""
+Rect = Annotated[
+    tuple[Real, Real, Real, Real], AfterValidator(_ordered), WithJsonSchema(RECT_JSON_SCHEMA)
+]
 """An axis-aligned rectangle ``[x0, y0, x1, y1]`` (lower-left, then upper-right corner)."""
 
 
