@@ -2,8 +2,8 @@
 
 Explicit walls, rooms and corridors become wall pieces (boxes along a centre line); room
 openings and corridor ends carve gaps out of every axis-parallel wall they cross; pieces
-that line up are merged. The ``grid_rooms`` and ``maze`` generators (``generators.py``) add their own pieces, drawn
-from a random generator. ``ground.py`` turns the pieces into pymunk bodies.
+that line up are merged. The ``grid_rooms`` and ``maze`` generators (``generators.py``)
+add their own pieces, drawn from a random generator; ``ground.py`` makes them physical.
 """
 
 from __future__ import annotations
