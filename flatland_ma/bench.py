@@ -45,7 +45,7 @@ def bench_gym(scenario: str, steps: int, seed: int = 0) -> BenchResult:
         if terminated or truncated:
             env.reset()
     rate = steps / (time.perf_counter() - start)
-    bare = bare_space_rate(env.unwrapped.parallel_env, steps)
+    bare = bare_space_rate(env.unwrapped.parallel_env, steps)  # type: ignore[attr-defined]
     env.close()
     return BenchResult(f"gym {gym_id(scenario)}", 1, rate, bare)
 
@@ -75,7 +75,7 @@ def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:
     env.reset(seed=1)
     for _ in range(20):
         env.step({a: env.action_space(a).sample() for a in env.agents})
-    world = env.episode.world
+    world = env.running.world
     space, dt, substeps = world.space, world.substep_dt, world.substeps
     start = time.perf_counter()
     for _ in range(steps):

@@ -145,7 +145,13 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
     }
     agents = {a: makers[policy](a) for a in env.possible_agents}
     video = out.suffix.lower() != ".png"
-    frames = [env.render()]
+
+    def grab() -> np.ndarray:
+        frame = env.render()
+        assert frame is not None, "an rgb_array env draws a frame"
+        return frame
+
+    frames = [grab()]
     for t in range(steps):
         if not env.agents:
             break
@@ -154,9 +160,9 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
         # One frame in ``every``, and always the last (the step that ends the episode).
         last = not env.agents or t == steps - 1
         if video and ((t + 1) % every == 0 or last):
-            frames.append(env.render())
+            frames.append(grab())
     if not video:
-        return save_png(env.render(), out)
+        return save_png(grab(), out)
     save_png(frames[len(frames) // 2], out.with_suffix(".png"))
     save = save_mp4 if out.suffix.lower() == ".mp4" else save_gif
     return save(frames, out, fps=env.metadata["render_fps"] / every)
@@ -180,7 +186,9 @@ def _play(args) -> int:
     env.render()
     keys = {pygame.K_UP: 0, pygame.K_LEFT: 1, pygame.K_RIGHT: 2}
     total = 0.0
-    while env.agents and not env._renderer._window.closed_by_user:
+    renderer = env._renderer
+    assert renderer is not None, "a human env has its renderer after render()"
+    while env.agents and not renderer.closed_by_user:
         pressed = pygame.key.get_pressed()
         action = next((a for key, a in keys.items() if pressed[key]), None)
         if action is None:

@@ -136,7 +136,7 @@ class Actuator:
             value = int(action)
         else:
             raise InvalidActionError(agent, action, self.space, "an integer is required")
-        if not 0 <= value < self.space.n:
+        if not 0 <= value < len(self.macros):
             raise InvalidActionError(agent, action, self.space, "out of range")
         return value
 

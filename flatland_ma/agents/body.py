@@ -28,7 +28,7 @@ from flatland_ma.world.looks import RGB
 
 @dataclass(eq=False)
 class AgentBody(Entity):
-    control: pymunk.Body | None = None
+    control: pymunk.Body = None  # type: ignore[assignment]  # set by make_agent_body
     max_speed: float = 0.0
     """Units per second."""
     max_turn_rate: float = 0.0
@@ -39,15 +39,13 @@ class AgentBody(Entity):
     """Largest change of turn rate the motor makes in one substep (radians per second)."""
     step_dt: float = 1.0 / 30.0
     """Seconds per environment step."""
-    touching: int = 0
-    """Number of solid shapes the agent touches (kept by the world's contact callbacks)."""
     parts: list = field(default_factory=list)
     """Its parts (``parts.Part``: head, arm segments, graspers), in the order of their
     controls."""
     links: list = field(default_factory=list)
     """The bodies its parts add (``parts.Link``: head, arm segments), each on a joint,
     parents before children."""
-    head: object = None
+    head: Entity = None  # type: ignore[assignment]  # None unless it has a head
     """The head's link, if any (a camera may sit on it)."""
     joints: list = field(default_factory=list)
     """The arm segments' links, in action order."""

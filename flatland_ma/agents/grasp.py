@@ -12,7 +12,7 @@ from __future__ import annotations
 import pymunk
 
 from flatland_ma.agents.body import AgentBody
-from flatland_ma.agents.parts import ArmSegment, Control, Part, agent_filter
+from flatland_ma.agents.parts import ArmSegment, Control, Link, Part, agent_filter
 from flatland_ma.world.entities import CollisionType, Entity
 
 REGRASP_STEPS = 15
@@ -40,15 +40,15 @@ class Grasper(Part, kind="grasper"):
         self.radius, self.strength, self.break_distance = radius, strength, break_distance
         self.controls = (Control(grip, f"{prefix}grasp", f"{prefix}release"),)
         self.label = label
-        self.shape: pymunk.Circle | None = None
-        self.segment = None
-        """The arm segment's link whose tip it is."""
+        self.shape: pymunk.Circle  # made by ``build``
+        self.segment: Link
+        """The arm segment's link whose tip it is (set by ``build``)."""
         self.closed = False
         self.touching: list[Entity] = []
         """Graspable objects the hand touches now, first touched first (the world keeps
         it up to date)."""
         self.joint: pymunk.PivotJoint | None = None
-        self.held = None
+        self.held: Entity | None = None
         self.cooldown = 0
 
     def build(self, agent: AgentBody) -> None:
@@ -78,6 +78,7 @@ class Grasper(Part, kind="grasper"):
 
     def slip(self) -> float:
         """How far the held object has slipped from where it was grasped."""
+        assert self.joint is not None and self.held is not None, "it holds nothing"
         a = self.segment.body.local_to_world(self.joint.anchor_a)
         b = self.held.body.local_to_world(self.joint.anchor_b)
         return (a - b).length

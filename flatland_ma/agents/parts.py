@@ -89,9 +89,9 @@ class Part(ABC):
 class Link(Entity):
     """The body of a head or an arm segment, joined to its parent by a motorised joint."""
 
-    base: AgentBody | None = None
-    parent: pymunk.Body | None = None
-    motor: pymunk.SimpleMotor | None = None
+    base: AgentBody = None  # type: ignore[assignment]  # set when built
+    parent: pymunk.Body = None  # type: ignore[assignment]
+    motor: pymunk.Constraint | None = None
     limits: tuple[float, float] = (0.0, 0.0)
     """Lowest and highest angle of the body relative to its parent, in radians."""
     max_rate: float = 0.0
@@ -102,7 +102,7 @@ class Link(Entity):
     """The rate last given to its motor (pymunk's sign: parent minus child)."""
 
     @property
-    def actor(self) -> AgentBody | None:
+    def actor(self) -> AgentBody:
         return self.base
 
     @property
@@ -143,7 +143,7 @@ class Head(Part, kind="head"):
         self.max_torque = max_torque
         self.controls = (Control("head", "head_left", "head_right"),)
         self.label = "head"
-        self.link: Link | None = None
+        self.link: Link  # made by ``build``
 
     def build(self, agent: AgentBody) -> Link:
         anchor = agent.body
@@ -218,7 +218,7 @@ class ArmSegment(Part, kind="arm_segment"):
         """How many joints lie between it and the base, its own included."""
         self.controls = (Control(name, f"{name}_left", f"{name}_right"),)
         self.label = label
-        self.link: Link | None = None
+        self.link: Link  # made by ``build``
 
     def build(self, agent: AgentBody) -> Link:
         if self.previous is None:

@@ -130,7 +130,9 @@ def populate(
     for zone in spec.zones:
         world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
 
-    eyes = [b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own]
+    eyes: list[Entity] = [
+        b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own
+    ]
     suite = Sensors(world, eyes, [s for own in sensors for s in own], [len(s) for s in sensors])
     hands = Hands(world.space, [hand for body in bodies for hand in body.hands])
     for hand in hands.hands:

@@ -13,6 +13,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from flatland_ma.build.bodies import footprint, make_parts
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
 from flatland_ma.scenario.spec_agent import SpawnSpec
@@ -73,7 +75,7 @@ class _Draw:
     n: int
     radius: float
     area: tuple | None
-    cells: object
+    cells: np.ndarray
     area_path: KeyPath | None
     count_path: KeyPath
     radius_path: KeyPath

@@ -33,8 +33,7 @@ class Ground:
         """Each solid shape's key path in the scenario, for messages about overlaps."""
         self._world: World | None = None
         self._grid: NavGrid | None = None
-        self.start: np.ndarray | None = None
-        """The cells where agents start (every spawn area), once the grid is laid."""
+        self._start: np.ndarray | None = None
 
     def add(self, layout: Layout) -> None:
         """Add wall and door pieces (built at once if the world already stands)."""
@@ -49,6 +48,13 @@ class Ground:
         if self._world is None:
             self._materialise()
         return self._world  # type: ignore[return-value]
+
+    @property
+    def start(self) -> np.ndarray:
+        """The cells where agents start (every spawn area)."""
+        if self._start is None:
+            self._materialise()
+        return self._start  # type: ignore[return-value]  # set by _materialise
 
     @property
     def grid(self) -> NavGrid:
@@ -75,23 +81,24 @@ class Ground:
                 for shape in entity.shapes:
                     grid.block_shape(shape)
         self._grid = grid
-        self.start = np.zeros_like(grid.blocked)
+        start = np.zeros_like(grid.blocked)
         for group in spawn_groups(spec):
-            self.start |= grid.cells_in(group.spawn.area)
+            start |= grid.cells_in(group.spawn.area)
+        self._start = start
 
     def _build(self, walls: list[WallPiece], doors: list[DoorPiece], check: bool) -> None:
-        world = self._world
+        world = self.world
         built, paths = make_walls(walls, world.space.static_body)
         for wall in built:
-            self._add(wall, [paths[s] for s in wall.shapes], check)
+            self._add(wall, [paths[s] for s in wall.shapes], check, walls_ok=True)
         for piece in doors:
             door = make_door(piece, world.space)
-            self._add(door, [piece.path], check)
+            self._add(door, [piece.path], check, walls_ok=True)
             self.doors.append(door)
 
-    def _add(self, entity: Entity, paths: list[tuple], check: bool) -> None:
+    def _add(self, entity: Entity, paths: list[tuple], check: bool, walls_ok: bool) -> None:
         if check:
-            _check_clear(self.world, entity, paths[0], self.owners, solid_only=entity.fixed)
+            _check_clear(self.world, entity, paths[0], self.owners, solid_only=walls_ok)
         self.world.add(entity)
         for shape, path in zip(entity.shapes, paths * len(entity.shapes)):
             self.owners[shape] = path
@@ -101,7 +108,7 @@ class Ground:
 
     def place_clear(self, entity: Entity, path: tuple) -> None:
         """Add an entity that must overlap nothing; raise at ``path`` if it does."""
-        self._add(entity, [path], check=True)
+        self._add(entity, [path], check=True, walls_ok=False)
 
 
 def _check_clear(

@@ -101,6 +101,7 @@ def explicit_layout(spec: ScenarioSpec) -> Layout:
         carves.append(_corridor_carve(corridor, t))
     for d, door in enumerate(spec.doors):
         t = door.thickness or spec.arena.wall.thickness
+        assert door.start is not None and door.end is not None  # checked by the schema
         doors.append(DoorPiece(door.start, door.end, t, door, ("doors", d)))
         carves += _door_carve(door.start, door.end, t)
     return Layout(merge(carve(walls, carves)), doors)
@@ -209,9 +210,9 @@ def merge(walls: list[WallPiece]) -> list[WallPiece]:
     merged = []
     for (axis, line, *_), pieces in groups.items():
         spans = sorted(
-            ([*sorted((w.start[axis], w.end[axis])), w] for w in pieces), key=lambda s: s[:2]
+            ((*sorted((w.start[axis], w.end[axis])), w) for w in pieces), key=lambda s: s[:2]
         )
-        current = None
+        current: list | None = None
         for lo, hi, w in spans:
             if current is not None and lo <= current[1] + 1e-9:
                 current[1] = max(current[1], hi)

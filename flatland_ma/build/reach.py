@@ -86,7 +86,7 @@ def _check_drawn_opener(grid, start, gates, region, opener: Opener) -> None:
             format_path(g.door.path) for g in gates if any(o.path == opener.path for o in g.openers)
         ]
         raise SpecError(
-            opener.area,
+            opener.area or opener.path,
             f"{format_path(opener.path)} may be drawn where agents can only go through "
             f"{', '.join(opens)}, which it opens; {opener.hint}",
         )

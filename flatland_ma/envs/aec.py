@@ -18,6 +18,8 @@ from flatland_ma.envs.parallel import FlatlandParallelEnv
 class FlatlandAECEnv(parallel_to_aec_wrapper):
     """``parallel_to_aec_wrapper`` that checks the acting agent's action before storing it."""
 
+    env: FlatlandParallelEnv
+
     def step(self, action) -> None:
         agent = self.agent_selection
         if not (self.terminations[agent] or self.truncations[agent]):

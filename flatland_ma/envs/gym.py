@@ -68,7 +68,7 @@ class FlatlandGymEnv(gymnasium.Env):
             raise RuntimeError("the episode is over: call reset()")
         checked = self._actuator.check(self.agent, action)
         _, rewards, terminated, truncated = par._advance([checked])
-        episode = par.episode
+        episode = par.running
         return (
             episode.sensors.observation(0),
             rewards[0],

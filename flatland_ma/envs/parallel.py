@@ -87,7 +87,7 @@ class FlatlandParallelEnv(ParallelEnv):
         self._live: list[int] = []
         self._np_random: np.random.Generator | None = None
         self._np_random_seed: int | None = None
-        self._reset_state: dict | None = None
+        self._reset_state: Mapping | None = None
         self._log: list[list] = []
         self._renderer = None
 
@@ -108,6 +108,13 @@ class FlatlandParallelEnv(ParallelEnv):
         return self._actuators[self._index[agent]].index(name)
 
     @property
+    def running(self) -> Episode:
+        """The current episode (there is one once ``reset`` has been called)."""
+        if self.episode is None:
+            raise RuntimeError("call reset() first")
+        return self.episode
+
+    @property
     def np_random(self) -> np.random.Generator:
         if self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random()
@@ -118,9 +125,9 @@ class FlatlandParallelEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         if seed is not None or self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
-        self._reset_state = self._np_random.bit_generator.state
+        self._reset_state = self.np_random.bit_generator.state
         self._start_episode()
-        sensors, task = self.episode.sensors, self.episode.task
+        sensors, task = self.running.sensors, self.running.task
         observations = {a: sensors.observation(i) for i, a in enumerate(self.possible_agents)}
         infos = {a: task.info(i) for i, a in enumerate(self.possible_agents)}
         return observations, infos
@@ -128,7 +135,7 @@ class FlatlandParallelEnv(ParallelEnv):
     def step(self, actions: Mapping):
         checked = self._check(actions)
         live, rewards, terminated, truncated = self._advance(checked)
-        sensors, task, names = self.episode.sensors, self.episode.task, self.possible_agents
+        sensors, task, names = self.running.sensors, self.running.task, self.possible_agents
         observations = {names[i]: sensors.observation(i) for i in live}
         reward_d = {names[i]: rewards[i] for i in live}
         terminated_d = {names[i]: terminated[i] for i in live}
@@ -137,8 +144,8 @@ class FlatlandParallelEnv(ParallelEnv):
         return observations, reward_d, terminated_d, truncated_d, infos
 
     def _start_episode(self) -> None:
-        self.episode = build(self.spec, self._np_random, self._sensors)
-        self.episode.sensors.observe()
+        self.episode = episode = build(self.spec, self.np_random, self._sensors)
+        episode.sensors.observe()
         self.num_steps = 0
         self._live = list(range(len(self.possible_agents)))
         self.agents = list(self.possible_agents)
@@ -192,7 +199,7 @@ class FlatlandParallelEnv(ParallelEnv):
         Returns the agents that were live for this step, everyone's rewards and
         terminations, and whether the step limit truncated the episode.
         """
-        episode = self.episode
+        episode = self.running
         live = self._live
         bodies, actuators = episode.bodies, self._actuators
         for i, action in zip(live, checked):
@@ -200,7 +207,7 @@ class FlatlandParallelEnv(ParallelEnv):
         self._log.append(checked)
         episode.world.step()
         episode.hands.update()
-        rewards, terminated = episode.task.evaluate(self._np_random)
+        rewards, terminated = episode.task.evaluate(self.np_random)
         episode.sensors.observe()
         self.num_steps += 1
         truncated = self.step_limit is not None and self.num_steps >= self.step_limit

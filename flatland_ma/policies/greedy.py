@@ -162,6 +162,7 @@ class GreedyForager:
     # -- targets ------------------------------------------------------------------------
 
     def _follow_target(self, targets: np.ndarray) -> None:
+        assert self._target is not None, "no target to follow"
         self._target_age += 1
         x, y = self._target
         if len(targets):
@@ -178,7 +179,9 @@ class GreedyForager:
         if self._target_age > PATIENCE or self._dithering():
             self._give_up()
             return
-        route = self._route(self._target, keep=self._via)
+        target = self._target
+        assert target is not None
+        route = self._route(target, keep=self._via)
         if route is None:
             self._give_up()
         else:
@@ -234,6 +237,7 @@ class GreedyForager:
         return len(turns) == DITHER_TURNS and all(a != b for a, b in zip(turns, turns[1:]))
 
     def _give_up(self) -> None:
+        assert self._target is not None, "no target to give up"
         self._banned = np.concatenate([self._banned, [[*self._target[:2], 0.0]]])
         self._target = self._via = None
 

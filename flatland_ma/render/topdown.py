@@ -7,6 +7,7 @@ The renderer only reads the world and the sensors; it never changes them.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pymunk
@@ -14,6 +15,9 @@ from PIL import Image, ImageDraw, ImageFont
 
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.textures import KINDS, shade
+
+if TYPE_CHECKING:
+    from flatland_ma.render.window import Window
 
 ARENA_PIXELS = 480
 """Length in pixels of the arena's longer side in the picture."""
@@ -49,6 +53,7 @@ def _polygon_outline(pts) -> list:
 
 def _circle_outline(shape: pymunk.Circle) -> list:
     body, r = shape.body, shape.radius
+    assert body is not None, "a shape on no body"
     cx, cy = body.local_to_world(shape.offset)
     n = max(8, int(2 * math.pi * r / TEXTURE_STEP))
     pieces = []
@@ -61,7 +66,8 @@ def _circle_outline(shape: pymunk.Circle) -> list:
 
 
 def _rgb255(color) -> tuple[int, int, int]:
-    return tuple(int(round(255 * c)) for c in color)
+    r, g, b = (int(round(255 * c)) for c in color)
+    return r, g, b
 
 
 class Renderer:
@@ -79,7 +85,7 @@ class Renderer:
         self.strip_block = LABEL_HEIGHT + 2 * STRIP_HEIGHT + 4
         self.size = (self.map_size[0], self.map_size[1] + spec.n_agents * self.strip_block)
         self._font = ImageFont.load_default()
-        self._window = None
+        self._window: Window | None = None
 
     def frame(self, env) -> np.ndarray:
         """An RGB picture of the env's current state, uint8 of shape (H, W, 3)."""
@@ -146,7 +152,7 @@ class Renderer:
             texture = entity.texture
             fill = _rgb255(entity.color if texture is None else texture.colors[0])
             for shape in entity.shapes:
-                body = shape.body
+                body = entity.body if shape.body is None else shape.body
                 if isinstance(shape, pymunk.Circle):
                     cx, cy = px(body.local_to_world(shape.offset))
                     r = shape.radius * self.scale * k
@@ -158,6 +164,8 @@ class Renderer:
                     draw.polygon([px(p) for p in pts], fill=fill, outline=(0, 0, 0))
                     outline = _polygon_outline(pts)
                     centre = None
+                else:  # pragma: no cover - the builder makes only circles and polygons
+                    continue
                 if texture is not None and not texture.plain:
                     self._draw_texture(draw, px, texture, outline, centre)
 
@@ -189,6 +197,11 @@ class Renderer:
             else:
                 draw.polygon([px(centre), px(p), px(q)], fill=colour)
 
+    @property
+    def closed_by_user(self) -> bool:
+        """Whether the human window was closed by its user."""
+        return self._window is not None and self._window.closed_by_user
+
     def show(self, frame: np.ndarray, fps: int) -> None:
         """Show a frame in the human window (opened on first use)."""
         if self._window is None:
@@ -200,4 +213,4 @@ class Renderer:
     def close(self) -> None:
         if self._window is not None:
             self._window.close()
-            self._window = None
+            self._window: Window | None = None

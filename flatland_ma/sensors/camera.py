@@ -43,9 +43,5 @@ class Camera(Sensor, kind="camera"):
         self.falloff = FALLOFFS[falloff]
         self.space = spaces.Box(0.0, 1.0, (rays, len(CHANNELS)), np.float32)
 
-    @property
-    def observation_space(self) -> spaces.Box:
-        return self.space
-
     def read(self, results, rays: slice) -> np.ndarray:
         return results.image[rays].copy()

@@ -24,7 +24,7 @@ class DoorRule(Rule):
             if door.opens_to_touch(step.records[agent.owner].keys):
                 self._open(door)
         for thing, door in step.log.keys:
-            if door.opens_to_key(thing.key):
+            if thing.key is not None and door.opens_to_key(thing.key):
                 self._open(door)
         for door in self.switched:
             pressed = door.switch in step.log.occupied

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from flatland_ma.world.entities import Door, Entity, Item, Zone
+from flatland_ma.world.entities import Door, Entity, Item, Obstacle, Zone
 
 
 @dataclass
@@ -25,7 +25,7 @@ class ContactLog:
     """(agent base, zone) for each zone an agent's centre entered, agent by agent."""
     occupied: set[str] = field(default_factory=set)
     """Names of the zones that hold a live agent's centre now."""
-    deliveries: list[tuple[Entity, Zone]] = field(default_factory=list)
+    deliveries: list[tuple[Obstacle, Zone]] = field(default_factory=list)
     """(object, zone) for each tagged object whose centre lies in a zone accepting it."""
 
     def clear(self) -> None:

@@ -65,6 +65,8 @@ class Entity:
     """Index of the agent this entity belongs to (cameras skip their own agent)."""
     visible: bool = True
     """Whether rays and the renderer see it (an eaten item, an open door are hidden)."""
+    touching: int = 0
+    """How many solid shapes it touches (the world keeps it for agents' bases)."""
 
     @property
     def moving(self) -> bool:

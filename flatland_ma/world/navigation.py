@@ -139,6 +139,7 @@ class NavGrid:
 
     def _rasterise(self, mask: np.ndarray, shape: pymunk.Shape, extra: float) -> None:
         body = shape.body
+        assert body is not None, "a shape on no body"
         at_origin = body.position == (0, 0) and body.angle == 0
         if isinstance(shape, pymunk.Circle):
             cx, cy = body.local_to_world(shape.offset)

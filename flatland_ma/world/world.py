@@ -3,10 +3,12 @@ log, and which entities changed since the sensors last looked."""
 
 from __future__ import annotations
 
+from typing import cast
+
 import pymunk
 
 from flatland_ma.world.contacts import ContactLog
-from flatland_ma.world.entities import Category, CollisionType, Entity, Zone
+from flatland_ma.world.entities import Category, CollisionType, Door, Entity, Item, Obstacle, Zone
 
 _SOLID_OR_ITEM = pymunk.ShapeFilter(mask=Category.EVERYTHING)
 _AGENT_TYPES = (CollisionType.AGENT, CollisionType.GRASPER)
@@ -31,7 +33,7 @@ class World:
         self.agents: list[Entity] = []
         """Agents' bases, in agent order."""
         self.zones: list[Zone] = []
-        self.tagged: list[Entity] = []
+        self.tagged: list[Obstacle] = []
         """Objects with a delivery tag."""
         self.log = ContactLog()
         self.changed: list[Entity] = []
@@ -65,7 +67,7 @@ class World:
         self.space.add(*entity.aux_bodies, *entity.shapes, *entity.constraints)
         if entity.actor is entity:
             self.agents.append(entity)
-        if entity.tag is not None:
+        if isinstance(entity, Obstacle) and entity.tag is not None:
             self.tagged.append(entity)
         return entity
 
@@ -184,20 +186,26 @@ class World:
 
     # -- collision callbacks (record only) ----------------------------------------------
 
+    def _actor(self, shape: pymunk.Shape) -> Entity:
+        """The agent's base that ``shape`` (of a collision type of agents) belongs to."""
+        actor = self.entity_of_shape[shape].actor
+        assert actor is not None, "an agent's shape without its agent"
+        return actor
+
     def _on_item(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         agent_shape, item_shape = arbiter.shapes
-        agent = self.entity_of_shape[agent_shape].actor
-        self.log.items.append((agent, self.entity_of_shape[item_shape]))
+        item = cast(Item, self.entity_of_shape[item_shape])
+        self.log.items.append((self._actor(agent_shape), item))
 
     def _on_door(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         agent_shape, door_shape = arbiter.shapes
-        agent = self.entity_of_shape[agent_shape].actor
-        self.log.doors.append((agent, self.entity_of_shape[door_shape]))
+        door = cast(Door, self.entity_of_shape[door_shape])
+        self.log.doors.append((self._actor(agent_shape), door))
 
     def _on_key(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         thing, door = (self.entity_of_shape[s] for s in arbiter.shapes)
         if thing.key is not None:
-            self.log.keys.append((thing, door))
+            self.log.keys.append((thing, cast(Door, door)))
 
     def _on_grip(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         grip, other = arbiter.shapes
@@ -228,4 +236,4 @@ class World:
         if agent_shape.collision_type not in _AGENT_TYPES:  # e.g. when a shape is removed
             agent_shape, other = other, agent_shape
         if not other.sensor:
-            self.entity_of_shape[agent_shape].actor.touching += change
+            self._actor(agent_shape).touching += change
