@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from flatland_ma.sensors import kernel
+from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes, pack_scene
 
 
 def box(cx, cy, w, h):
@@ -17,10 +18,6 @@ def box(cx, cy, w, h):
         (cx + w / 2, cy + h / 2),
         (cx - w / 2, cy + h / 2),
     ]
-
-
-def edges(corners):
-    return [(*corners[i], *corners[(i + 1) % len(corners)]) for i in range(len(corners))]
 
 
 def cast(
@@ -45,78 +42,42 @@ def cast(
     """Cast rays at ``angles`` (radians, relative to the eye heading).
 
     Entities are numbered polygons first, then circles. ``textures``: per entity None or
-    (kind, period, duty, seed, second colour). Returns (distance, entity, image).
+    (kind, period, duty, seed, second colour). Shapes on no body are fixed: binned in the
+    grid unless ``grid=False``. Returns (distance, entity, image).
     """
-    segs, seg_entity, seg_body, seg_u0 = [], [], [], []
-    for e, corners in enumerate(polygons):
-        run = 0.0
-        for row in edges(corners):
-            segs.append(row)
-            seg_entity.append(e)
-            seg_body.append(-1 if polygon_bodies is None else polygon_bodies[e])
-            seg_u0.append(run)
-            run += math.hypot(row[2] - row[0], row[3] - row[1])
-    circ, circ_entity, circ_body = [], [], []
-    for k, c in enumerate(circles):
-        circ.append(c)
-        circ_entity.append(len(polygons) + k)
-        circ_body.append(-1 if circle_bodies is None else circle_bodies[k])
+    poly_body = [-1] * len(polygons) if polygon_bodies is None else list(polygon_bodies)
+    circ_body = [-1] * len(circles) if circle_bodies is None else list(circle_bodies)
     n_ent = len(polygons) + len(circles)
-    seg_local = np.array(segs, np.float64).reshape(-1, 4)
-    circ_local = np.array(circ, np.float64).reshape(-1, 3)
-    angles = np.asarray(angles, np.float64)
-    n = len(angles)
-    image = np.zeros((n, 4), np.float32)
-    distance = np.zeros(n)
-    hit = np.zeros(n, np.int32)
-    work_s, work_c = kernel.empty_work(len(seg_local), len(circ_local))
-    if colors is None:
-        colors = [(1.0, 1.0, 1.0)] * n_ent
-    colors = np.array(colors, np.float32).reshape(-1, 3)
-    second = colors.copy()
-    tex = np.zeros((n_ent, 3))
-    tex_kind = np.zeros(n_ent, np.int32)
-    for e, t in enumerate(textures or [None] * n_ent):
+    first = np.ones((n_ent, 3)) if colors is None else np.array(colors, np.float64).reshape(-1, 3)
+    second = first.copy()
+    texture = [(0, 0.0, 0.0, 0.0)] * n_ent
+    for e, t in enumerate(textures or []):
         if t is not None:
-            tex_kind[e], tex[e], second[e] = t[0], t[1:4], t[4]
-    # Shapes on no body are fixed: binned in the grid unless ``grid=False``.
-    seg_fixed = (np.array(seg_body) < 0) & grid if len(seg_body) else np.zeros(0, bool)
-    circ_fixed = (np.array(circ_body) < 0) & grid if len(circ_body) else np.zeros(0, bool)
-    binned = kernel.bin_fixed_shapes(seg_local, seg_fixed, circ_local, circ_fixed, cells)
-    kernel.observe(
-        np.array(poses if poses is not None else np.zeros((0, 3)), np.float64).reshape(-1, 3),
-        seg_local,
-        seg_local.copy(),
-        np.array(seg_body, np.int32),
-        np.array(seg_entity, np.int32),
-        np.array(seg_u0, np.float64),
-        circ_local,
-        circ_local.copy(),
-        np.array(circ_body, np.int32),
-        np.array(circ_entity, np.int32),
-        np.zeros(len(circ_local)),
-        np.flatnonzero(~seg_fixed).astype(np.int32),
-        np.flatnonzero(~circ_fixed).astype(np.int32),
-        *binned,
-        np.array(owners if owners is not None else [-1] * n_ent, np.int32),
-        np.ones(n_ent, np.bool_),
-        np.concatenate([colors, second], axis=1),
-        tex,
-        tex_kind,
-        np.array([eye_body], np.int32),
-        np.array([eye], np.float64),
-        np.array([eye_owner], np.int32),
-        np.array([[view_range, half_fov if half_fov is not None else float(np.abs(angles).max())]]),
-        np.array([falloff], np.int32),
-        np.array([0, n], np.int32),
-        np.stack([np.cos(angles), np.sin(angles)], axis=1),
-        image,
-        distance,
-        hit,
-        work_s,
-        work_c,
+            texture[e], second[e] = (t[0], *t[1:4]), t[4]
+    shapes, fixed_grid, looks = pack_scene(
+        [(corners, b, e) for e, (corners, b) in enumerate(zip(polygons, poly_body))],
+        [(c, 0.0, b, len(polygons) + k) for k, (c, b) in enumerate(zip(circles, circ_body))],
+        fixed=[grid and b < 0 for b in poly_body + circ_body],
+        owner=[-1] * n_ent if owners is None else owners,
+        visible=[True] * n_ent,
+        colors=np.concatenate([first, second], axis=1),
+        textures=texture,
+        target_cells=cells,
     )
-    return distance, hit, image
+    angles = np.asarray(angles, np.float64)
+    eyes = pack_eyes(
+        body=[eye_body],
+        local=[eye],
+        owner=[eye_owner],
+        view_range=[view_range],
+        half_fov=[float(np.abs(angles).max()) if half_fov is None else half_fov],
+        falloff=[falloff],
+        angles=[angles],
+    )
+    out = Outputs.zeros(len(angles))
+    pose = np.array(poses if poses is not None else np.zeros((0, 3)), np.float64).reshape(-1, 3)
+    kernel.observe(pose, shapes, fixed_grid, looks, eyes, out, Scratch.for_shapes(shapes))
+    return out.distance, out.hit_entity, out.image
 
 
 def deg(*values):

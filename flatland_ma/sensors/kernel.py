@@ -1,23 +1,37 @@
 """The ray kernel: every ray of every camera cast in one compiled call.
 
-The world is flat arrays (see ``geometry.py``):
+``observe(pose, shapes, grid, looks, eyes, out, scratch)`` reads the world as named tuples
+of flat arrays, built by ``scene.pack_scene`` and ``scene.pack_eyes`` (each field's shape
+and meaning is documented there):
 
-- segments: the edges of convex polygons, counter-clockwise, so each edge's outward
-  normal is (ey, -ex); a ray only hits an edge from outside (back faces are skipped).
-  Each edge also knows how far along its polygon's perimeter it starts (for textures);
-- circles: centre and radius, and the angle textures start from;
-- each segment and circle names its entity; entities carry an owner (the agent they
-  belong to, whose own cameras do not see them), a visibility flag, two colours and a
-  texture (kind and parameters; see ``textures.py``).
+- ``pose`` (B, 3) float64: x, y, angle of each moving body, written by the geometry
+  snapshot each step;
+- ``Shapes``: segments, the edges of convex polygons, counter-clockwise, so each edge's
+  outward normal is (ey, -ex) and a ray only hits an edge from outside (back faces are
+  skipped), each knowing how far along its polygon's perimeter it starts (for textures);
+  and circles (centre, radius, and the angle textures start from). Each names its entity
+  and its body's row in ``pose`` (-1: static). Shapes on moving bodies are stored in body
+  coordinates and moved to world coordinates at the start of each call; static shapes are
+  stored in world coordinates;
+- ``Grid``: shapes that never move (walls, fixed obstacles, doors) binned in a uniform
+  grid. Each ray walks the cells it crosses, nearest first (a DDA), and stops once its
+  nearest hit lies before the cell's far edge. Everything else ("loose" shapes: agents,
+  items, movable things) is culled per eye by range and field of view into ``Scratch``,
+  then tested against every ray of that eye;
+- ``Looks``: per entity an owner (the agent it belongs to, whose own eyes do not see it),
+  a visibility flag, two colours and a texture (kind and parameters; see ``textures.py``);
+- ``Eyes``: per eye its body row and pose on the body, owner, range, half field of view,
+  falloff and its rays' directions;
+- ``Outputs``, per ray: the colour image (RGB times intensity, and normalised depth), the
+  distance and the entity hit (-1 for none).
 
-Shapes on moving bodies are stored in body coordinates and moved by the body poses at the
-start of each call; static shapes are stored in world coordinates. Shapes that never move
-(walls, fixed obstacles, doors) are also binned in a uniform grid: each ray walks the grid
-cells it crosses, nearest first (a DDA), and stops once its nearest hit lies before the
-cell's far edge. Everything else ("loose" shapes: agents, items, movable things) is culled
-per camera ("eye") by range and field of view, then tested against every ray of that eye.
-Outputs per ray: the colour image (RGB times intensity, and normalised depth), the
-distance and the entity hit (-1 for none).
+Every helper is inlined into ``observe`` (``inline="always"``), so the compiler sees one
+function. ``observe`` runs without numba's reference counting (``_nrt=False``): it
+allocates nothing and only reads and writes arrays its caller keeps alive, while the
+counting is not free: each inlined helper that takes the named tuples adds an increment
+and decrement per array per call, which numba cannot prune across the helpers' branches
+and loops (numba issue #2350), and which made the kernel 2-3 times slower. An array
+allocated in the kernel would fail to compile.
 """
 
 from __future__ import annotations
@@ -25,9 +39,11 @@ from __future__ import annotations
 import math
 
 import numba as nb
-import numpy as np
 
+from flatland_ma.sensors.scene import bin_fixed_shapes
 from flatland_ma.sensors.textures import shade
+
+__all__ = ["FALLOFF_LINEAR", "FALLOFF_NONE", "bin_fixed_shapes", "observe"]
 
 FALLOFF_LINEAR = 0
 FALLOFF_NONE = 1
@@ -86,287 +102,237 @@ def _circle_t(circ_world, s, ox, oy, dx, dy, best):
     return t if t < best else -1.0
 
 
-@nb.njit(cache=True)
-def observe(
-    pose,
-    seg_local,
-    seg_world,
-    seg_body,
-    seg_entity,
-    seg_u0,
-    circ_local,
-    circ_world,
-    circ_body,
-    circ_entity,
-    circ_angle,
-    loose_seg,
-    loose_circ,
-    grid,
-    cell_seg_start,
-    cell_seg,
-    cell_circ_start,
-    cell_circ,
-    ent_owner,
-    ent_visible,
-    ent_colors,
-    ent_texture,
-    ent_texture_kind,
-    eye_body,
-    eye_local,
-    eye_owner,
-    eye_view,
-    eye_falloff,
-    eye_rays,
-    ray_dir,
-    image,
-    distance,
-    hit_entity,
-    cand_seg,
-    cand_circ,
-):
-    """Move the moving shapes to their bodies' poses, then cast every ray.
+@nb.njit(cache=True, inline="always")
+def _unseen(looks, entity, owner):
+    """Is the entity hidden, or part of the agent that owns the eye (owner -1: nobody)?"""
+    return not looks.visible[entity] or (owner >= 0 and looks.owner[entity] == owner)
 
-    pose (B, 3): x, y, angle of each moving body. *_body: index into pose, or -1 for a
-    static shape. loose_seg, loose_circ: indices of the shapes not in the grid. grid:
-    x0, y0, cell size, columns, rows; cell k lists cell_seg[cell_seg_start[k]:
-    cell_seg_start[k + 1]] (likewise circles). ent_colors (E, 6): first and second
-    colour. ent_texture (E, 3): period, duty, seed. eye_view (V, 2): range and half field
-    of view. eye_rays (V + 1,): rays of eye v are eye_rays[v]:eye_rays[v + 1]. ray_dir
-    (N, 2): cosine and sine of each ray's angle relative to its eye's heading.
-    Writes image (N, 4), distance (N,), hit_entity (N,).
-    """
-    for s in range(seg_local.shape[0]):
-        b = seg_body[s]
+
+@nb.njit(cache=True, inline="always")
+def _move_shapes(pose, shapes):
+    """Write the world coordinates of every shape on a moving body."""
+    for s in range(shapes.seg_local.shape[0]):
+        b = shapes.seg_body[s]
         if b >= 0:
             px, py, a = pose[b, 0], pose[b, 1], pose[b, 2]
             c, sn = math.cos(a), math.sin(a)
             for k in range(2):
-                lx, ly = seg_local[s, 2 * k], seg_local[s, 2 * k + 1]
-                seg_world[s, 2 * k] = px + c * lx - sn * ly
-                seg_world[s, 2 * k + 1] = py + sn * lx + c * ly
-    for s in range(circ_local.shape[0]):
-        b = circ_body[s]
+                lx, ly = shapes.seg_local[s, 2 * k], shapes.seg_local[s, 2 * k + 1]
+                shapes.seg_world[s, 2 * k] = px + c * lx - sn * ly
+                shapes.seg_world[s, 2 * k + 1] = py + sn * lx + c * ly
+    for s in range(shapes.circ_local.shape[0]):
+        b = shapes.circ_body[s]
         if b >= 0:
             px, py, a = pose[b, 0], pose[b, 1], pose[b, 2]
             c, sn = math.cos(a), math.sin(a)
-            lx, ly = circ_local[s, 0], circ_local[s, 1]
-            circ_world[s, 0] = px + c * lx - sn * ly
-            circ_world[s, 1] = py + sn * lx + c * ly
-            circ_world[s, 2] = circ_local[s, 2]
+            lx, ly = shapes.circ_local[s, 0], shapes.circ_local[s, 1]
+            shapes.circ_world[s, 0] = px + c * lx - sn * ly
+            shapes.circ_world[s, 1] = py + sn * lx + c * ly
+            shapes.circ_world[s, 2] = shapes.circ_local[s, 2]
 
-    gx0, gy0, cell = grid[0], grid[1], grid[2]
-    gnx, gny = int(grid[3]), int(grid[4])
-    for v in range(eye_body.shape[0]):
-        b = eye_body[v]
-        if b >= 0:
-            px, py, a = pose[b, 0], pose[b, 1], pose[b, 2]
-            c, sn = math.cos(a), math.sin(a)
-            ox = px + c * eye_local[v, 0] - sn * eye_local[v, 1]
-            oy = py + sn * eye_local[v, 0] + c * eye_local[v, 1]
-            heading = a + eye_local[v, 2]
+
+@nb.njit(cache=True, inline="always")
+def _place_eye(pose, eyes, v):
+    """Eye v's position (ox, oy) and heading (cosine, sine) in the world."""
+    b = eyes.body[v]
+    if b >= 0:
+        px, py, a = pose[b, 0], pose[b, 1], pose[b, 2]
+        c, sn = math.cos(a), math.sin(a)
+        ox = px + c * eyes.local[v, 0] - sn * eyes.local[v, 1]
+        oy = py + sn * eyes.local[v, 0] + c * eyes.local[v, 1]
+        heading = a + eyes.local[v, 2]
+    else:
+        ox, oy, heading = eyes.local[v, 0], eyes.local[v, 1], eyes.local[v, 2]
+    return ox, oy, math.cos(heading), math.sin(heading)
+
+
+@nb.njit(cache=True, inline="always")
+def _cull(shapes, looks, scratch, owner, ox, oy, hx, hy, view_range, half_fov):
+    """List in ``scratch`` the loose shapes an eye at (ox, oy) heading (hx, hy) may see;
+    returns how many segments and circles it listed."""
+    seg = shapes.seg_world
+    n_seg = 0
+    for s in shapes.loose_seg:
+        if _unseen(looks, shapes.seg_entity[s], owner):
+            continue
+        x1, y1, x2, y2 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
+        half = 0.5 * math.sqrt((x2 - x1) ** 2 + (y2 - y1) ** 2)
+        mx, my = 0.5 * (x1 + x2) - ox, 0.5 * (y1 + y2) - oy
+        if _in_view(mx, my, half, view_range, hx, hy, half_fov):
+            scratch.cand_seg[n_seg] = s
+            n_seg += 1
+    circ = shapes.circ_world
+    n_circ = 0
+    for s in shapes.loose_circ:
+        if _unseen(looks, shapes.circ_entity[s], owner):
+            continue
+        dx, dy = circ[s, 0] - ox, circ[s, 1] - oy
+        if _in_view(dx, dy, circ[s, 2], view_range, hx, hy, half_fov):
+            scratch.cand_circ[n_circ] = s
+            n_circ += 1
+    return n_seg, n_circ
+
+
+@nb.njit(cache=True, inline="always")
+def _cast_loose(shapes, scratch, n_seg, n_circ, ox, oy, dx, dy, best):
+    """The nearest of the listed loose shapes nearer than ``best`` along the ray from
+    (ox, oy) in direction (dx, dy): (distance, segment, circle, fraction along the
+    segment), -1 for no segment or no circle."""
+    hit_seg, hit_circ, hit_along = -1, -1, 0.0
+    for k in range(n_seg):
+        s = scratch.cand_seg[k]
+        t, along = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, best)
+        if t >= 0.0:
+            best, hit_seg, hit_along = t, s, along
+    for k in range(n_circ):
+        s = scratch.cand_circ[k]
+        t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, best)
+        if t >= 0.0:
+            best, hit_seg, hit_circ = t, -1, s
+    return best, hit_seg, hit_circ, hit_along
+
+
+@nb.njit(cache=True, inline="always")
+def _cast_cell(shapes, grid, looks, k, owner, ox, oy, dx, dy, hit):
+    """``hit`` (as ``_cast_loose`` returns it) updated with the shapes of grid cell k."""
+    best, hit_seg, hit_circ, hit_along = hit
+    for q in range(grid.cell_seg_start[k], grid.cell_seg_start[k + 1]):
+        s = grid.cell_seg[q]
+        if _unseen(looks, shapes.seg_entity[s], owner):
+            continue
+        t, along = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, best)
+        if t >= 0.0:
+            best, hit_seg, hit_circ, hit_along = t, s, -1, along
+    for q in range(grid.cell_circ_start[k], grid.cell_circ_start[k + 1]):
+        s = grid.cell_circ[q]
+        if _unseen(looks, shapes.circ_entity[s], owner):
+            continue
+        t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, best)
+        if t >= 0.0:
+            best, hit_seg, hit_circ = t, -1, s
+    return best, hit_seg, hit_circ, hit_along
+
+
+@nb.njit(cache=True, inline="always")
+def _grid_span(frame, ox, oy, dx, dy, best):
+    """Where the ray, up to ``best``, is inside the grid: (t_in, t_out); empty if
+    t_in > t_out."""
+    t_in = 0.0
+    t_out = best
+    for axis in range(2):
+        o = ox if axis == 0 else oy
+        d = dx if axis == 0 else dy
+        lo = frame[0] if axis == 0 else frame[1]
+        hi = lo + frame[2] * (int(frame[3]) if axis == 0 else int(frame[4]))
+        if abs(d) < 1e-12:
+            if o < lo or o > hi:
+                t_in = t_out + 1.0
         else:
-            ox, oy, heading = eye_local[v, 0], eye_local[v, 1], eye_local[v, 2]
-        hx, hy = math.cos(heading), math.sin(heading)
-        owner = eye_owner[v]
-        view_range = eye_view[v, 0]
-        half_fov = eye_view[v, 1]
+            ta, tb = (lo - o) / d, (hi - o) / d
+            if ta > tb:
+                ta, tb = tb, ta
+            t_in = max(t_in, ta)
+            t_out = min(t_out, tb)
+    return t_in, t_out
 
-        n_seg = 0
-        for k in range(loose_seg.shape[0]):
-            s = loose_seg[k]
-            e = seg_entity[s]
-            if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
-                continue
-            x1, y1, x2, y2 = seg_world[s, 0], seg_world[s, 1], seg_world[s, 2], seg_world[s, 3]
-            half = 0.5 * math.sqrt((x2 - x1) ** 2 + (y2 - y1) ** 2)
-            mx, my = 0.5 * (x1 + x2) - ox, 0.5 * (y1 + y2) - oy
-            if _in_view(mx, my, half, view_range, hx, hy, half_fov):
-                cand_seg[n_seg] = s
-                n_seg += 1
-        n_circ = 0
-        for k in range(loose_circ.shape[0]):
-            s = loose_circ[k]
-            e = circ_entity[s]
-            if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
-                continue
-            dx, dy = circ_world[s, 0] - ox, circ_world[s, 1] - oy
-            if _in_view(dx, dy, circ_world[s, 2], view_range, hx, hy, half_fov):
-                cand_circ[n_circ] = s
-                n_circ += 1
 
-        for r in range(eye_rays[v], eye_rays[v + 1]):
-            lc, ls = ray_dir[r, 0], ray_dir[r, 1]
+@nb.njit(cache=True, inline="always")
+def _first_cell(o, d, lo, cell, n, t_in):
+    """Along one axis (ray origin o, direction d; grid from lo, n cells of side cell): the
+    cell the ray enters at t_in, the step to the next cell (+1 or -1), the distance at
+    which it crosses into the next cell, and the distance between crossings."""
+    i = min(n - 1, max(0, int((o + t_in * d - lo) / cell)))
+    step = 1 if d > 0 else -1
+    if abs(d) > 1e-12:
+        edge = lo + (i + (1 if d > 0 else 0)) * cell
+        return i, step, (edge - o) / d, cell / abs(d)
+    return i, step, math.inf, math.inf
+
+
+@nb.njit(cache=True, inline="always")
+def _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit):
+    """``hit`` updated with the fixed shapes: the ray walks the grid's cells from the eye
+    outwards (Amanatides-Woo) until its nearest hit lies before the cell's far edge."""
+    frame = grid.frame
+    t_in, t_out = _grid_span(frame, ox, oy, dx, dy, hit[0])
+    if t_in > t_out:
+        return hit
+    gnx, gny = int(frame[3]), int(frame[4])
+    i, step_i, t_next_i, t_delta_i = _first_cell(ox, dx, frame[0], frame[2], gnx, t_in)
+    j, step_j, t_next_j, t_delta_j = _first_cell(oy, dy, frame[1], frame[2], gny, t_in)
+    while True:
+        hit = _cast_cell(shapes, grid, looks, j * gnx + i, owner, ox, oy, dx, dy, hit)
+        if hit[0] <= min(t_next_i, t_next_j):
+            return hit
+        if t_next_i < t_next_j:
+            i += step_i
+            t_next_i += t_delta_i
+        else:
+            j += step_j
+            t_next_j += t_delta_j
+        if i < 0 or j < 0 or i >= gnx or j >= gny:
+            return hit
+
+
+@nb.njit(cache=True, inline="always")
+def _surface_u(pose, shapes, hit_seg, hit_circ, along, px, py):
+    """Distance along the surface hit at (px, py) from where its texture starts."""
+    if hit_circ >= 0:
+        circ = shapes.circ_world[hit_circ]
+        body = shapes.circ_body[hit_circ]
+        ref = pose[body, 2] if body >= 0 else shapes.circ_angle[hit_circ]
+        ang = math.atan2(py - circ[1], px - circ[0]) - ref
+        ang = ang - 2.0 * math.pi * math.floor(ang / (2.0 * math.pi))
+        return circ[2] * ang
+    seg = shapes.seg_world[hit_seg]
+    ex, ey = seg[2] - seg[0], seg[3] - seg[1]
+    return shapes.seg_u0[hit_seg] + along * math.sqrt(ex * ex + ey * ey)
+
+
+@nb.njit(cache=True, inline="always")
+def _record(pose, shapes, looks, out, r, ox, oy, dx, dy, hit, view_range, linear):
+    """Write ray r's distance, entity and pixel: the hit's colour (textured) times the
+    intensity, which falls linearly with depth if ``linear``."""
+    best, hit_seg, hit_circ, along = hit
+    out.distance[r] = best
+    depth = best / view_range
+    out.image[r, 3] = depth
+    if hit_seg < 0 and hit_circ < 0:
+        out.hit_entity[r] = -1
+        out.image[r, 0] = 0.0
+        out.image[r, 1] = 0.0
+        out.image[r, 2] = 0.0
+        return
+    e = shapes.seg_entity[hit_seg] if hit_seg >= 0 else shapes.circ_entity[hit_circ]
+    out.hit_entity[r] = e
+    w = 0.0
+    kind = looks.texture_kind[e]
+    if kind != 0:
+        px, py = ox + best * dx, oy + best * dy
+        u = _surface_u(pose, shapes, hit_seg, hit_circ, along, px, py)
+        tex = looks.texture[e]
+        w = shade(kind, tex[0], tex[1], tex[2], u, px, py)
+    intensity = 1.0 - depth if linear else 1.0
+    for ch in range(3):
+        colour = looks.colors[e, ch] * (1.0 - w) + looks.colors[e, 3 + ch] * w
+        out.image[r, ch] = min(colour, 1.0) * intensity
+
+
+@nb.njit(cache=True, _nrt=False)  # no reference counting: see the module's docstring
+def observe(pose, shapes, grid, looks, eyes, out, scratch):
+    """Move the moving shapes to their bodies' poses, then cast every ray of every eye
+    into ``out`` (the structures are described in the module's docstring)."""
+    _move_shapes(pose, shapes)
+    for v in range(eyes.body.shape[0]):
+        ox, oy, hx, hy = _place_eye(pose, eyes, v)
+        owner = eyes.owner[v]
+        view_range, half_fov = eyes.view_range[v], eyes.half_fov[v]
+        linear = eyes.falloff[v] == FALLOFF_LINEAR
+        n_seg, n_circ = _cull(shapes, looks, scratch, owner, ox, oy, hx, hy, view_range, half_fov)
+        for r in range(eyes.rays[v], eyes.rays[v + 1]):
+            lc, ls = eyes.ray_dir[r, 0], eyes.ray_dir[r, 1]
             dx = hx * lc - hy * ls
             dy = hy * lc + hx * ls
-            best = view_range
-            hit_seg = -1
-            hit_circ = -1
-            hit_along = 0.0
-            for k in range(n_seg):
-                s = cand_seg[k]
-                t, along = _segment_t(seg_world, s, ox, oy, dx, dy, best)
-                if t >= 0.0:
-                    best, hit_seg, hit_along = t, s, along
-            for k in range(n_circ):
-                s = cand_circ[k]
-                t = _circle_t(circ_world, s, ox, oy, dx, dy, best)
-                if t >= 0.0:
-                    best, hit_seg, hit_circ = t, -1, s
-
-            # Walk the grid of fixed shapes from the eye outwards (Amanatides-Woo).
-            t_in = 0.0
-            t_out = best
-            for axis in range(2):
-                o = ox if axis == 0 else oy
-                d = dx if axis == 0 else dy
-                lo = gx0 if axis == 0 else gy0
-                hi = lo + cell * (gnx if axis == 0 else gny)
-                if abs(d) < 1e-12:
-                    if o < lo or o > hi:
-                        t_in = t_out + 1.0
-                else:
-                    ta, tb = (lo - o) / d, (hi - o) / d
-                    if ta > tb:
-                        ta, tb = tb, ta
-                    t_in = max(t_in, ta)
-                    t_out = min(t_out, tb)
-            if t_in <= t_out:
-                cx = ox + t_in * dx
-                cy = oy + t_in * dy
-                i = min(gnx - 1, max(0, int((cx - gx0) / cell)))
-                j = min(gny - 1, max(0, int((cy - gy0) / cell)))
-                step_i = 1 if dx > 0 else -1
-                step_j = 1 if dy > 0 else -1
-                if abs(dx) > 1e-12:
-                    edge = gx0 + (i + (1 if dx > 0 else 0)) * cell
-                    t_next_i = (edge - ox) / dx
-                    t_delta_i = cell / abs(dx)
-                else:
-                    t_next_i = np.inf
-                    t_delta_i = np.inf
-                if abs(dy) > 1e-12:
-                    edge = gy0 + (j + (1 if dy > 0 else 0)) * cell
-                    t_next_j = (edge - oy) / dy
-                    t_delta_j = cell / abs(dy)
-                else:
-                    t_next_j = np.inf
-                    t_delta_j = np.inf
-                while True:
-                    k = j * gnx + i
-                    for q in range(cell_seg_start[k], cell_seg_start[k + 1]):
-                        s = cell_seg[q]
-                        e = seg_entity[s]
-                        if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
-                            continue
-                        t, along = _segment_t(seg_world, s, ox, oy, dx, dy, best)
-                        if t >= 0.0:
-                            best, hit_seg, hit_circ, hit_along = t, s, -1, along
-                    for q in range(cell_circ_start[k], cell_circ_start[k + 1]):
-                        s = cell_circ[q]
-                        e = circ_entity[s]
-                        if not ent_visible[e] or (owner >= 0 and ent_owner[e] == owner):
-                            continue
-                        t = _circle_t(circ_world, s, ox, oy, dx, dy, best)
-                        if t >= 0.0:
-                            best, hit_seg, hit_circ = t, -1, s
-                    t_exit = min(t_next_i, t_next_j)
-                    if best <= t_exit:
-                        break
-                    if t_next_i < t_next_j:
-                        i += step_i
-                        t_next_i += t_delta_i
-                    else:
-                        j += step_j
-                        t_next_j += t_delta_j
-                    if i < 0 or j < 0 or i >= gnx or j >= gny:
-                        break
-
-            distance[r] = best
-            depth = best / view_range
-            image[r, 3] = depth
-            if hit_seg >= 0:
-                hit = seg_entity[hit_seg]
-            elif hit_circ >= 0:
-                hit = circ_entity[hit_circ]
-            else:
-                hit_entity[r] = -1
-                image[r, 0] = 0.0
-                image[r, 1] = 0.0
-                image[r, 2] = 0.0
-                continue
-            hit_entity[r] = hit
-            w = 0.0
-            kind = ent_texture_kind[hit]
-            if kind != 0:
-                px, py = ox + best * dx, oy + best * dy
-                if hit_circ >= 0:
-                    cb = circ_body[hit_circ]
-                    ref = pose[cb, 2] if cb >= 0 else circ_angle[hit_circ]
-                    ang = (
-                        math.atan2(py - circ_world[hit_circ, 1], px - circ_world[hit_circ, 0]) - ref
-                    )
-                    ang = ang - 2.0 * math.pi * math.floor(ang / (2.0 * math.pi))
-                    u = circ_world[hit_circ, 2] * ang
-                else:
-                    ex = seg_world[hit_seg, 2] - seg_world[hit_seg, 0]
-                    ey = seg_world[hit_seg, 3] - seg_world[hit_seg, 1]
-                    u = seg_u0[hit_seg] + hit_along * math.sqrt(ex * ex + ey * ey)
-                tex = ent_texture[hit]
-                w = shade(kind, tex[0], tex[1], tex[2], u, px, py)
-            intensity = 1.0 - depth if eye_falloff[v] == FALLOFF_LINEAR else 1.0
-            for ch in range(3):
-                colour = ent_colors[hit, ch] * (1.0 - w) + ent_colors[hit, 3 + ch] * w
-                image[r, ch] = min(colour, 1.0) * intensity
-
-
-def empty_work(n_seg: int, n_circ: int) -> tuple[np.ndarray, np.ndarray]:
-    """Scratch arrays the kernel fills with the shapes each eye may see."""
-    return np.zeros(max(n_seg, 1), np.int32), np.zeros(max(n_circ, 1), np.int32)
-
-
-def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells: int = 1024):
-    """A uniform grid over the fixed shapes: (grid, cell_seg_start, cell_seg,
-    cell_circ_start, cell_circ), each shape listed in every cell its bounding box meets."""
-    boxes = []
-    if seg_fixed.any():
-        s = seg_world[seg_fixed]
-        lo = np.minimum(s[:, :2], s[:, 2:])
-        hi = np.maximum(s[:, :2], s[:, 2:])
-        boxes.append(np.concatenate([lo, hi], axis=1))
-    if circ_fixed.any():
-        c = circ_world[circ_fixed]
-        boxes.append(np.concatenate([c[:, :2] - c[:, 2:3], c[:, :2] + c[:, 2:3]], axis=1))
-    if not boxes:
-        empty = np.zeros(2, np.int32)
-        return np.array([0.0, 0.0, 1.0, 1.0, 1.0]), empty, empty[:0], empty, empty[:0]
-    all_boxes = np.concatenate(boxes)
-    x0, y0 = all_boxes[:, 0].min() - 1.0, all_boxes[:, 1].min() - 1.0
-    x1, y1 = all_boxes[:, 2].max() + 1.0, all_boxes[:, 3].max() + 1.0
-    cell = max(math.sqrt((x1 - x0) * (y1 - y0) / target_cells), 1.0)
-    nx, ny = max(1, math.ceil((x1 - x0) / cell)), max(1, math.ceil((y1 - y0) / cell))
-    grid = np.array([x0, y0, cell, nx, ny], np.float64)
-
-    def cells_of(indices, index_boxes):
-        """CSR lists of the shapes whose bounding box meets each cell."""
-        n_cells = nx * ny
-        if len(indices) == 0:
-            return np.zeros(n_cells + 1, np.int32), np.zeros(0, np.int32)
-        i0 = np.clip(((index_boxes[:, 0] - x0) / cell).astype(np.int64), 0, nx - 1)
-        i1 = np.clip(((index_boxes[:, 2] - x0) / cell).astype(np.int64), 0, nx - 1)
-        j0 = np.clip(((index_boxes[:, 1] - y0) / cell).astype(np.int64), 0, ny - 1)
-        j1 = np.clip(((index_boxes[:, 3] - y0) / cell).astype(np.int64), 0, ny - 1)
-        width = i1 - i0 + 1
-        counts = width * (j1 - j0 + 1)
-        owner = np.repeat(np.arange(len(indices)), counts)
-        local = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-        cells = (j0[owner] + local // width[owner]) * nx + i0[owner] + local % width[owner]
-        order = np.argsort(cells, kind="stable")
-        start = np.zeros(n_cells + 1, np.int32)
-        start[1:] = np.cumsum(np.bincount(cells, minlength=n_cells))
-        return start, np.asarray(indices, np.int32)[owner[order]]
-
-    seg_start, segs = cells_of(np.flatnonzero(seg_fixed), boxes[0] if seg_fixed.any() else None)
-    circ_start, circs = cells_of(
-        np.flatnonzero(circ_fixed), boxes[-1] if circ_fixed.any() else None
-    )
-    return grid, seg_start, segs, circ_start, circs
+            hit = _cast_loose(shapes, scratch, n_seg, n_circ, ox, oy, dx, dy, view_range)
+            hit = _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit)
+            _record(pose, shapes, looks, out, r, ox, oy, dx, dy, hit, view_range, linear)

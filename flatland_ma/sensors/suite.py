@@ -7,12 +7,12 @@ kernel call, and lets each sensor read its observation from the results.
 
 from __future__ import annotations
 
-import numpy as np
+import numba as nb
 from gymnasium import spaces
 
 from flatland_ma.sensors import kernel
-from flatland_ma.sensors.camera import CHANNELS
 from flatland_ma.sensors.geometry import Geometry
+from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.world.entities import Entity
 from flatland_ma.world.world import World
@@ -26,7 +26,10 @@ def observation_space(sensors: list[Sensor]) -> spaces.Space:
 
 
 class Sensors:
-    """Every agent's sensors; ``observe`` fills one preallocated image for all rays."""
+    """Every agent's sensors; ``observe`` fills one preallocated set of results for all
+    rays: ``image`` (rays, 4) float32, ``distance`` (rays,) float64 and ``hit_entity``
+    (rays,) int32, sensor k's rays at ``slices[k]``; agent i's sensors are
+    ``per_agent[i]``."""
 
     def __init__(
         self,
@@ -42,69 +45,38 @@ class Sensors:
         self.geometry = geo = Geometry(world)
         self.cameras = cameras
         counts = counts if counts is not None else [1] * len(cameras)
-        firsts = np.cumsum([0] + list(counts))
+        firsts = [sum(counts[:i]) for i in range(len(counts) + 1)]
         self.per_agent = [list(range(a, b)) for a, b in zip(firsts[:-1], firsts[1:])]
-        starts = np.cumsum([0] + [cam.n_rays for cam in cameras])
+        self.eyes = pack_eyes(
+            body=[geo.body_row[e.index] for e in eyes],
+            local=[(0.0, 0.0, 0.0)] * len(eyes),
+            owner=[e.owner for e in eyes],
+            view_range=[c.view_range for c in cameras],
+            half_fov=[c.half_fov for c in cameras],
+            falloff=[c.falloff for c in cameras],
+            angles=[c.angles for c in cameras],
+        )
+        starts = self.eyes.rays
         self.slices = [slice(int(a), int(b)) for a, b in zip(starts[:-1], starts[1:])]
-        n = int(starts[-1])
-        self.eye_body = np.array([geo.body_row[e.index] for e in eyes], np.int32)
-        self.eye_local = np.zeros((len(eyes), 3), np.float64)
-        self.eye_owner = np.array([e.owner for e in eyes], np.int32)
-        self.eye_view = np.array([(c.view_range, c.half_fov) for c in cameras], np.float64)
-        self.eye_falloff = np.array([c.falloff for c in cameras], np.int32)
-        self.eye_rays = starts.astype(np.int32)
-        angles = np.concatenate([c.angles for c in cameras])
-        self.ray_dir = np.stack([np.cos(angles), np.sin(angles)], axis=1)
-        self.image = np.zeros((n, len(CHANNELS)), np.float32)
-        self.distance = np.zeros(n, np.float64)
-        self.hit_entity = np.full(n, -1, np.int32)
-        self.cand_seg, self.cand_circ = kernel.empty_work(len(geo.seg_local), len(geo.circ_local))
+        self.out = Outputs.zeros(int(starts[-1]))
+        self.image, self.distance, self.hit_entity = self.out
+        self._args = (geo.pose, geo.shapes, geo.grid, geo.looks, self.eyes, self.out)
+        self._args += (Scratch.for_shapes(geo.shapes),)
+        # numba types named tuples in Python on every call (several microseconds, a tenth
+        # of a small world's kernel time): type these arguments once and keep the
+        # compiled function. The arrays are only ever written in place.
+        signature = tuple(nb.typeof(a) for a in self._args)
+        self._kernel = kernel.observe.compile(signature)
 
     def observe(self) -> None:
         """Pick up what the world changed, read the moving bodies' poses and cast every
         ray of every sensor."""
-        g = self.geometry
+        geo = self.geometry
         if self.world.changed:
             for entity in self.world.take_changed():
-                g.update_entity(entity)
-        g.refresh_poses()
-        kernel.observe(
-            g.pose,
-            g.seg_local,
-            g.seg_world,
-            g.seg_body,
-            g.seg_entity,
-            g.seg_u0,
-            g.circ_local,
-            g.circ_world,
-            g.circ_body,
-            g.circ_entity,
-            g.circ_angle,
-            g.loose_seg,
-            g.loose_circ,
-            g.grid,
-            g.cell_seg_start,
-            g.cell_seg,
-            g.cell_circ_start,
-            g.cell_circ,
-            g.ent_owner,
-            g.ent_visible,
-            g.ent_colors,
-            g.ent_texture,
-            g.ent_texture_kind,
-            self.eye_body,
-            self.eye_local,
-            self.eye_owner,
-            self.eye_view,
-            self.eye_falloff,
-            self.eye_rays,
-            self.ray_dir,
-            self.image,
-            self.distance,
-            self.hit_entity,
-            self.cand_seg,
-            self.cand_circ,
-        )
+                geo.update_entity(entity)
+        geo.refresh_poses()
+        self._kernel(*self._args)
 
     def observation(self, agent_index: int):
         """A fresh copy of the agent's observation: its one sensor's, or a dict by name."""
