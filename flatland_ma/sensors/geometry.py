@@ -38,10 +38,10 @@ class Geometry:
             first_seg, first_circ = n_seg, len(circles)
             for shape in entity.shapes:
                 corners, circle, angle = _outline(shape, local=body_row >= 0)
-                if circle is None:
+                if corners is not None:
                     polygons.append((corners, body_row, entity.index))
                     n_seg += len(corners)
-                else:
+                elif circle is not None:
                     circles.append((circle, angle, body_row, entity.index))
             self._rows[entity.index] = (range(first_seg, n_seg), range(first_circ, len(circles)))
 
@@ -74,9 +74,9 @@ class Geometry:
         segs, circs = [], []
         for shape in entity.shapes:
             corners, circle, _ = _outline(shape, local=False)
-            if circle is None:
+            if corners is not None:
                 segs += polygon_edges(corners)[0]
-            else:
+            elif circle is not None:
                 circs.append(circle)
         shapes = self.shapes
         for i, row in zip(seg_rows, segs):
@@ -104,12 +104,13 @@ def _outline(shape: pymunk.Shape, local: bool):
     (x, y, r) and the angle its texture starts from (corners None).
     """
     body = shape.body
+    assert body is not None, "a shape on no body"
     at_origin = body.body_type == pymunk.Body.STATIC and body.position == (0, 0) and body.angle == 0
     to_world = (lambda p: p) if local or at_origin else body.local_to_world
     if isinstance(shape, pymunk.Circle):
         x, y = to_world(shape.offset)
         return None, (x, y, shape.radius), (0.0 if local else body.angle)
     if isinstance(shape, pymunk.Poly):
-        corners: list[Point] = [tuple(to_world(v)) for v in shape.get_vertices()]
+        corners: list[Point] = [(p[0], p[1]) for p in map(to_world, shape.get_vertices())]
         return corners, None, None
     raise TypeError(f"shape {type(shape).__name__} cannot be seen by cameras")

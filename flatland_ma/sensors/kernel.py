@@ -318,7 +318,7 @@ def _record(pose, shapes, looks, out, r, ox, oy, dx, dy, hit, view_range, linear
         out.image[r, ch] = min(colour, 1.0) * intensity
 
 
-@nb.njit(cache=True, _nrt=False)  # no reference counting: see the module's docstring
+@nb.njit(cache=True, _nrt=False)  # type: ignore[call-overload]  # no refcounts: see the docstring
 def observe(pose, shapes, grid, looks, eyes, out, scratch):
     """Move the moving shapes to their bodies' poses, then cast every ray of every eye
     into ``out`` (the structures are described in the module's docstring)."""

@@ -174,8 +174,8 @@ def pack_scene(
     circ_local = np.array([c[0] for c in circles], np.float64).reshape(-1, 3)
     seg_entity = np.array(seg_entity, np.int32)
     circ_entity = np.array([c[3] for c in circles], np.int32)
-    fixed = np.array(fixed, np.bool_)
-    seg_fixed, circ_fixed = fixed[seg_entity], fixed[circ_entity]
+    is_fixed = np.array(fixed, np.bool_)
+    seg_fixed, circ_fixed = is_fixed[seg_entity], is_fixed[circ_entity]
     shapes = Shapes(
         seg_local=seg_local,
         seg_world=seg_local.copy(),
@@ -191,13 +191,13 @@ def pack_scene(
         loose_circ=np.flatnonzero(~circ_fixed).astype(np.int32),
     )
     grid = bin_fixed_shapes(seg_local, seg_fixed, circ_local, circ_fixed, target_cells)
-    textures = np.array(textures, np.float64).reshape(-1, 4)
+    texture_rows = np.array(textures, np.float64).reshape(-1, 4)
     looks = Looks(
         owner=np.array(owner, np.int32),
         visible=np.array(visible, np.bool_),
         colors=np.array(colors, np.float32).reshape(-1, 6),
-        texture=textures[:, 1:].copy(),
-        texture_kind=textures[:, 0].astype(np.int32),
+        texture=texture_rows[:, 1:].copy(),
+        texture_kind=texture_rows[:, 0].astype(np.int32),
     )
     return shapes, grid, looks
 

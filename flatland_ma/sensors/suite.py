@@ -66,7 +66,7 @@ class Sensors:
         # of a small world's kernel time): type these arguments once and keep the
         # compiled function. The arrays are only ever written in place.
         signature = tuple(nb.typeof(a) for a in self._args)
-        self._kernel = kernel.observe.compile(signature)
+        self._kernel = kernel.observe.compile(signature)  # type: ignore[attr-defined]  # a numba dispatcher
 
     def observe(self) -> None:
         """Pick up what the world changed, read the moving bodies' poses and cast every
