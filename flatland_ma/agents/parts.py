@@ -123,7 +123,18 @@ def _joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo, hi, torque):
     return pin, limit, motor
 
 
-class Head(Part, kind="head"):
+class Jointed(Part):
+    """A part with a body of its own on a motorised joint: its one control is the joint's
+    rate, as a fraction of its top speed (held still when not commanded)."""
+
+    link: Link  # made by ``build``
+
+    def command(self, values, angles: dict) -> None:
+        (value,) = values
+        self.link.base.set_rate(self.link, 0.0 if value is None else value, angles)
+
+
+class Head(Jointed, kind="head"):
     """A small disc ``offset`` ahead of the base's centre, turning about that centre up to
     ``max_angle`` degrees either way of the heading, at up to ``turn_rate`` degrees per
     second."""
@@ -172,10 +183,6 @@ class Head(Part, kind="head"):
         agent.links.append(self.link)
         return self.link
 
-    def command(self, values, angles: dict) -> None:
-        (value,) = values
-        self.link.base.set_rate(self.link, 0.0 if value is None else value, angles)
-
     def reach(self) -> float:
         return self.offset + self.radius
 
@@ -186,7 +193,7 @@ class Head(Part, kind="head"):
         return self.radius
 
 
-class ArmSegment(Part, kind="arm_segment"):
+class ArmSegment(Jointed, kind="arm_segment"):
     """One segment of an arm: a bar ``length`` long and ``width`` thick on a motorised
     joint, at the base's rim (``mount`` degrees from the heading) for the first segment,
     at the tip of the ``previous`` one otherwise; its joint turns between ``min_angle`` and
@@ -256,10 +263,6 @@ class ArmSegment(Part, kind="arm_segment"):
         agent.joints.append(self.link)
         agent.links.append(self.link)
         return self.link
-
-    def command(self, values, angles: dict) -> None:
-        (value,) = values
-        self.link.base.set_rate(self.link, 0.0 if value is None else value, angles)
 
     def reach(self) -> float:
         start = self.base_radius if self.previous is None else self.previous.reach()
