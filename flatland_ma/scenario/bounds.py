@@ -9,14 +9,19 @@ drawn from one side of the arena to the other ends on them. Nothing may lie beyo
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
-from flatland_ma.scenario.errors import SpecError, format_path
+from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
+
+if TYPE_CHECKING:  # the schema imports these checks
+    from flatland_ma.scenario.schema import ScenarioSpec
+    from flatland_ma.scenario.spec_objects import Obstacle
 
 MAX_MAZE_CELLS = 10_000
 """The most cells a maze may have (the largest shipped maze has 256)."""
 
 
-def check_bounds(spec) -> None:
+def check_bounds(spec: ScenarioSpec) -> None:
     """Raise ``SpecError`` at the first thing that lies outside the arena or cannot fit."""
     _check_areas(spec)
     _check_geometry(spec)
@@ -26,10 +31,10 @@ def check_bounds(spec) -> None:
     _check_fixed_items(spec)
 
 
-def _check_areas(spec) -> None:
+def _check_areas(spec: ScenarioSpec) -> None:
     width, height = spec.arena.size
 
-    def inside(x0, y0, x1, y1) -> bool:
+    def inside(x0: float, y0: float, x1: float, y1: float) -> bool:
         return x0 >= 0 and y0 >= 0 and x1 <= width and y1 <= height
 
     where = f"outside the {width:g} x {height:g} arena"
@@ -62,12 +67,12 @@ def _check_areas(spec) -> None:
             raise SpecError(("teams", i, "spawn", "area"), f"spawn area lies {where}")
 
 
-def _check_geometry(spec) -> None:
+def _check_geometry(spec: ScenarioSpec) -> None:
     """Walls, corridors and doors lie in the arena (ends may reach into its boundary walls)."""
     width, height = spec.arena.size
     margin = spec.arena.wall.thickness
 
-    def check(path, x, y, what) -> None:
+    def check(path: KeyPath, x: float, y: float, what: str) -> None:
         if not (-margin <= x <= width + margin and -margin <= y <= height + margin):
             raise SpecError(
                 path,
@@ -79,7 +84,7 @@ def _check_geometry(spec) -> None:
         check(("walls", i, "start"), *wall.start, "the wall's start")
         check(("walls", i, "end"), *wall.end, "the wall's end")
     for i, door in enumerate(spec.doors):
-        if door.start is not None:
+        if door.start is not None and door.end is not None:  # both or neither
             check(("doors", i, "start"), *door.start, "the door's start")
             check(("doors", i, "end"), *door.end, "the door's end")
     for i, corridor in enumerate(spec.corridors):
@@ -92,7 +97,7 @@ def _check_geometry(spec) -> None:
             check(("corridors", i, "width"), x, y, "the corridor's side wall at")
 
 
-def _check_openings(spec) -> None:
+def _check_openings(spec: ScenarioSpec) -> None:
     for r, room in enumerate(spec.rooms):
         x0, y0, x1, y1 = room.rect
         for o, opening in enumerate(room.openings):
@@ -108,7 +113,7 @@ def _check_openings(spec) -> None:
                 )
 
 
-def _check_fit(spec) -> None:
+def _check_fit(spec: ScenarioSpec) -> None:
     """An agent's base and every item must fit in the arena (an agent with its parts is
     checked when the parts are known: ``build.feasibility``)."""
     width, height = spec.arena.size
@@ -127,7 +132,7 @@ def _check_fit(spec) -> None:
             )
 
 
-def _check_mazes(spec) -> None:
+def _check_mazes(spec: ScenarioSpec) -> None:
     width, height = spec.arena.size
     for index, gen in enumerate(spec.layout.generators):
         if gen.generator != "maze":
@@ -152,7 +157,7 @@ def _check_mazes(spec) -> None:
             )
 
 
-def _check_fixed_items(spec) -> None:
+def _check_fixed_items(spec: ScenarioSpec) -> None:
     """No two items at fixed places overlap (binned by place, so many items stay fast)."""
     placed = [
         (x, y, item.radius, ("items", g, "positions", k))
@@ -162,7 +167,7 @@ def _check_fixed_items(spec) -> None:
     if len(placed) < 2:
         return
     cell = 2 * max(r for _, _, r, _ in placed)
-    bins: dict[tuple[int, int], list] = {}
+    bins: dict[tuple[int, int], list[tuple[float, float, float, KeyPath]]] = {}
     for x, y, r, path in placed:
         bx, by = math.floor(x / cell), math.floor(y / cell)
         for dx in (-1, 0, 1):
@@ -173,7 +178,7 @@ def _check_fixed_items(spec) -> None:
         bins.setdefault((bx, by), []).append((x, y, r, path))
 
 
-def obstacle_bounds(obstacle) -> tuple[float, float, float, float]:
+def obstacle_bounds(obstacle: Obstacle) -> tuple[float, float, float, float]:
     x, y = obstacle.position
     verts = obstacle.local_vertices()
     if verts is None:

@@ -3,13 +3,18 @@ teams, tags) and team sizes."""
 
 from __future__ import annotations
 
-from flatland_ma.scenario.errors import SpecError
+from typing import TYPE_CHECKING
+
+from flatland_ma.scenario.errors import KeyPath, SpecError
+
+if TYPE_CHECKING:  # the schema imports these checks
+    from flatland_ma.scenario.schema import ScenarioSpec
 
 RESERVED_NAMES = ("score", "keys", "deliveries")
 """Keys of ``infos[agent]`` that item groups may not take."""
 
 
-def check_teams(spec) -> None:
+def check_teams(spec: ScenarioSpec) -> None:
     if not spec.teams:
         for i, zone in enumerate(spec.zones):
             if zone.team is not None:
@@ -27,7 +32,7 @@ def check_teams(spec) -> None:
             raise SpecError(("zones", i, "team"), f"no team {zone.team!r}; teams: {names}")
 
 
-def check_names(spec) -> None:
+def check_names(spec: ScenarioSpec) -> None:
     groups = [item.name for item in spec.items]
     for i, name in enumerate(groups):
         if name in groups[:i]:
@@ -40,7 +45,7 @@ def check_names(spec) -> None:
             raise SpecError(("zones", i, "name"), f"zone name {zone.name!r} used twice")
     keys = {item.name for item in spec.items if item.key}
     keys |= {o.key for o in spec.obstacles if o.key is not None}
-    door_names = []
+    door_names: list[str] = []
     for path, door in spec.all_doors():
         if door.key is not None and door.key not in keys:
             raise SpecError(
@@ -71,14 +76,17 @@ def check_names(spec) -> None:
         )
 
 
-def wall_thicknesses(spec) -> list[tuple[tuple, float]]:
+def wall_thicknesses(spec: ScenarioSpec) -> list[tuple[KeyPath, float]]:
     """Every wall thickness a scenario sets, with its key path (the arena's first)."""
-    walls = [(("arena", "wall", "thickness"), spec.arena.wall.thickness)]
+    walls: list[tuple[KeyPath, float]] = [
+        (("arena", "wall", "thickness"), spec.arena.wall.thickness)
+    ]
     for key in ("walls", "rooms", "corridors"):
         for i, piece in enumerate(getattr(spec, key)):
             if piece.thickness is not None:
                 walls.append(((key, i, "thickness"), piece.thickness))
     for gen_index, gen in enumerate(spec.layout.generators):
-        if getattr(gen, "thickness", None) is not None:
-            walls.append((("layout", "generators", gen_index, "thickness"), gen.thickness))
+        thickness = getattr(gen, "thickness", None)  # not every generator draws walls
+        if thickness is not None:
+            walls.append((("layout", "generators", gen_index, "thickness"), thickness))
     return walls

@@ -6,6 +6,9 @@ defaults in the JSON schema) as its name, or else as ``"#rrggbb"``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any, TypeGuard
+
 RGB = tuple[float, float, float]
 
 # A small, fixed palette so that files read naturally ("orange", "purple").
@@ -47,9 +50,9 @@ def parse_color(value: object) -> RGB:
             digits = text[1:]
             if len(digits) != 6 or any(c not in "0123456789abcdef" for c in digits):
                 raise ValueError(f"colour {value!r} is not of the form '#rrggbb'")
-            return tuple(int(digits[i : i + 2], 16) / 255.0 for i in (0, 2, 4))  # type: ignore[return-value]
+            return _scaled([int(digits[i : i + 2], 16) for i in (0, 2, 4)])
         if text in NAMED_COLORS_255:
-            return tuple(c / 255.0 for c in NAMED_COLORS_255[text])  # type: ignore[return-value]
+            return _scaled(NAMED_COLORS_255[text])
         known = ", ".join(sorted(NAMED_COLORS_255))
         raise ValueError(f"unknown colour name {value!r}; known names: {known}")
     if isinstance(value, (list, tuple)):
@@ -59,8 +62,19 @@ def parse_color(value: object) -> RGB:
             raise ValueError(f"colour {value!r} must be three integers [r, g, b] in 0-255")
         if not all(0 <= c <= 255 for c in value):
             raise ValueError(f"colour {value!r} has a component outside 0-255")
-        return tuple(c / 255.0 for c in value)  # type: ignore[return-value]
+        return _scaled(value)
     raise ValueError(f"colour {value!r} must be a name, '#rrggbb' or [r, g, b] with 0-255 integers")
+
+
+def _scaled(ints: Sequence[int]) -> RGB:
+    """Three components in 0-255 as three floats in [0, 1]."""
+    r, g, b = ints
+    return r / 255.0, g / 255.0, b / 255.0
+
+
+def _is_stored(color: object) -> TypeGuard[RGB]:
+    """Whether a colour is in the stored form (floats), not as a file writes it."""
+    return isinstance(color, tuple) and all(isinstance(c, float) for c in color)
 
 
 def color_text(color: object) -> str:
@@ -68,14 +82,13 @@ def color_text(color: object) -> str:
 
     Takes a stored colour (three floats) or anything ``parse_color`` reads.
     """
-    stored = isinstance(color, tuple) and all(isinstance(c, float) for c in color)
-    rgb = color if stored else parse_color(color)
-    ints = tuple(round(c * 255) for c in rgb)  # type: ignore[union-attr]
+    rgb = color if _is_stored(color) else parse_color(color)
+    ints = tuple(round(c * 255) for c in rgb)
     names = [name for name, value in NAMED_COLORS_255.items() if value == ints]
     return names[0] if names else "#{:02x}{:02x}{:02x}".format(*ints)
 
 
-COLOR_JSON_SCHEMA: dict = {
+COLOR_JSON_SCHEMA: dict[str, Any] = {
     "anyOf": [
         {"type": "string", "enum": list(NAMED_COLORS_255)},
         {"type": "string", "pattern": "^#[0-9a-fA-F]{6}$"},

@@ -10,13 +10,14 @@ that it describes what files may write rather than how values are stored.
 from __future__ import annotations
 
 import json
+from typing import Any
 
 from flatland_ma.scenario.colors import COLOR_JSON_SCHEMA
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.scenario.types import RECT_JSON_SCHEMA
 
 DRAFT = "https://json-schema.org/draft/2020-12/schema"
-VALUE_TYPES: dict[str, tuple[dict, str, str]] = {
+VALUE_TYPES: dict[str, tuple[dict[str, Any], str, str]] = {
     "Color": (COLOR_JSON_SCHEMA, "colour", 'A name, "#rrggbb" or [r, g, b] in 0-255.'),
     "Rect": (
         RECT_JSON_SCHEMA,
@@ -26,7 +27,7 @@ VALUE_TYPES: dict[str, tuple[dict, str, str]] = {
 }
 """Values (not mappings) that many fields share: their schema, their name in the tables,
 and their description. The file schema keeps each once, in ``$defs``."""
-EXTENDS = {
+EXTENDS: dict[str, Any] = {
     "type": "string",
     "description": "A scenario (a shipped name or a path) this file starts from; the file "
     "merges over it: mappings key by key, anything else replaced whole.",
@@ -36,10 +37,10 @@ ANNOTATIONS = ("title", "description", "default")
 """Keys of a JSON schema that describe a value rather than constrain it."""
 
 
-def file_schema() -> dict:
+def file_schema() -> dict[str, Any]:
     """The JSON schema of a scenario file: ``ScenarioSpec``'s, with the loader's
     ``extends`` and the shared value types in ``$defs``."""
-    schema = ScenarioSpec.model_json_schema()
+    schema: dict[str, Any] = ScenarioSpec.model_json_schema()
     for name, (piece, _, description) in VALUE_TYPES.items():
         schema = _share(schema, piece, name)
         schema["$defs"][name] = {**piece, "description": description}
@@ -54,7 +55,7 @@ def schema_text() -> str:
     return json.dumps(file_schema(), indent=2, ensure_ascii=False) + "\n"
 
 
-def _share(node, piece: dict, name: str):
+def _share(node: Any, piece: dict[str, Any], name: str) -> Any:
     """``node`` with every schema equal to ``piece`` (but for its annotations) replaced by a
     reference to ``$defs/name``; so are ``piece``'s options among a wider ``anyOf`` (pydantic
     flattens ``X | None`` that way)."""

@@ -134,9 +134,10 @@ def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Mark
         raise ScenarioError([Problem(source, None, ("extends",), "extends itself in a cycle")])
     try:
         data = path.read_bytes()
-        text = data.decode("utf-8")
     except OSError as err:
         raise ScenarioError([Problem(source, None, (), f"cannot read the file: {err}")]) from None
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError as err:
         line = data.count(b"\n", 0, err.start) + 1
         message = f"not UTF-8 text: {err.reason} (byte {data[err.start]:#04x})"

@@ -6,20 +6,25 @@ from __future__ import annotations
 import difflib
 import types
 import typing
+from collections.abc import Sequence
 from typing import Any
 
 from pydantic import BaseModel
+from pydantic_core import ErrorDetails
 
-from flatland_ma.scenario.errors import KeyPath, Marks, SpecError, locate
+from flatland_ma.scenario.errors import KeyPath, Marks, Problem, SpecError, locate
 
 TAG_KEYS = ("shape", "generator")
 """Keys whose value picks the model of a mapping (pydantic puts it in error locations)."""
 
 
-def problems_from(errors: list[dict], root: type[BaseModel], raw: dict, marks: Marks, fallback):
+def problems_from(
+    errors: Sequence[ErrorDetails], root: type[BaseModel], raw: dict, marks: Marks, fallback: str
+) -> list[Problem]:
     """Every pydantic error as a ``Problem``; the errors of the alternatives of one union
     (e.g. ``respawn: 0``, neither a word nor a count) become one problem."""
-    faults: dict[KeyPath, list] = {}  # key path -> messages, or the errors of a union
+    # key path -> messages, or the errors of a union
+    faults: dict[KeyPath, list[str | ErrorDetails]] = {}
     for error in errors:
         cause = (error.get("ctx") or {}).get("error")
         if isinstance(cause, SpecError):
@@ -30,7 +35,7 @@ def problems_from(errors: list[dict], root: type[BaseModel], raw: dict, marks: M
         faults.setdefault(path, []).append(
             error if _is_branch(error, path) else _message(error, root)
         )
-    problems = []
+    problems: list[Problem] = []
     for path, found in faults.items():
         union = [e for e in found if isinstance(e, dict)]
         messages = [m for m in found if isinstance(m, str)] + (
@@ -40,7 +45,7 @@ def problems_from(errors: list[dict], root: type[BaseModel], raw: dict, marks: M
     return problems
 
 
-def _is_branch(error: dict, path: KeyPath) -> bool:
+def _is_branch(error: ErrorDetails, path: KeyPath) -> bool:
     """Whether the error is one alternative's of a union: its location ends in the name
     of the alternative (``int``, ``literal[...]``), which is not a key of the data."""
     last = error["loc"][-1] if error["loc"] else None
@@ -51,7 +56,7 @@ def _is_branch(error: dict, path: KeyPath) -> bool:
     )
 
 
-def _union_message(errors: list[dict]) -> str:
+def _union_message(errors: list[ErrorDetails]) -> str:
     texts = []
     for error in errors:
         text = error["msg"].removeprefix("Value error, ")
@@ -62,7 +67,7 @@ def _union_message(errors: list[dict]) -> str:
     return f"{', or '.join(texts)}; got {errors[0].get('input')!r}"
 
 
-def _message(error: dict, root: type[BaseModel]) -> str:
+def _message(error: ErrorDetails, root: type[BaseModel]) -> str:
     loc = tuple(error["loc"])
     kind = error["type"]
     if kind == "extra_forbidden":

@@ -15,6 +15,7 @@ import argparse
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from flatland_ma.scenario.colors import NAMED_COLORS_255
 from flatland_ma.scenario.json_schema import VALUE_TYPES, file_schema, schema_text
@@ -95,7 +96,7 @@ class Section:
 
     key: str
     """The model's name in ``$defs`` (members of a union joined by ``|``; "" for the top)."""
-    schema: dict
+    schema: dict[str, Any]
     """Its JSON schema, with ``properties`` and ``required``."""
     tag: str = ""
     """For a member of a union, its tag, e.g. ``shape: circle``."""
@@ -111,7 +112,7 @@ class Section:
         return self.uses[0] if self.uses else ""
 
 
-def sections(schema: dict) -> list[Section]:
+def sections(schema: dict[str, Any]) -> list[Section]:
     """Every model reached from the top of ``schema``, each after the first one holding it,
     with the key paths that lead to it (found breadth first, so shortest first)."""
     root = Section("", schema)
@@ -136,7 +137,7 @@ def sections(schema: dict) -> list[Section]:
     return order
 
 
-def _links(section: Section, defs: dict) -> Iterator[tuple[str, Section]]:
+def _links(section: Section, defs: dict[str, Any]) -> Iterator[tuple[str, Section]]:
     """The sections that a section's keys lead to, each with its key path."""
     for key, prop in section.schema["properties"].items():
         if key in section.skip:
@@ -168,7 +169,7 @@ Members = list[tuple[str, str]]
 """Models in ``$defs`` with their tags (empty outside a tagged union)."""
 
 
-def _refs(prop: dict, suffix: str = "") -> Iterator[tuple[str, Members, str | None]]:
+def _refs(prop: dict[str, Any], suffix: str = "") -> Iterator[tuple[str, Members, str | None]]:
     """The models a key's schema holds: (``[]`` per list level and ``.*`` per mapping of
     names, the models with their tags, the tag key if they are a tagged union's members)."""
     if "$ref" in prop:
@@ -192,7 +193,7 @@ def _name(ref: str) -> str:
     return ref.rsplit("/", 1)[-1]
 
 
-def _shared_keys(members: list[dict], tag_key: str) -> list[str]:
+def _shared_keys(members: list[dict[str, Any]], tag_key: str) -> list[str]:
     """The keys (but the tag) that every member of a union has, with the same schema."""
     first, *others = members
     return [
@@ -249,7 +250,7 @@ def _common_key(section: Section) -> str | None:
     return keys.pop() if len(section.uses) > 2 and len(keys) == 1 else None
 
 
-def _describe(prop: dict) -> str:
+def _describe(prop: dict[str, Any]) -> str:
     """A key's type in words, with its bounds."""
     if "$ref" in prop:
         name = _name(prop["$ref"])
@@ -264,7 +265,7 @@ def _describe(prop: dict) -> str:
         options = [o for o in prop["anyOf"] if o.get("type") != "null"]
         null = " or null" if len(options) < len(prop["anyOf"]) else ""
         return " or ".join(_describe(o) for o in options) + null
-    kind = prop.get("type")
+    kind = prop.get("type", "")
     if kind == "array" and "prefixItems" in prop:
         inner = [_describe(item) for item in prop["prefixItems"]]
         if len(set(inner)) == 1:
@@ -280,7 +281,7 @@ def _describe(prop: dict) -> str:
     return words.get(kind, "mapping" if kind == "object" else "anything") + _bounds(prop)
 
 
-def _bounds(prop: dict) -> str:
+def _bounds(prop: dict[str, Any]) -> str:
     signs = [
         ("exclusiveMinimum", ">"),
         ("minimum", ">="),
@@ -291,7 +292,7 @@ def _bounds(prop: dict) -> str:
     return f" ({', '.join(marks)})" if marks else ""
 
 
-def _length(prop: dict) -> str:
+def _length(prop: dict[str, Any]) -> str:
     marks = []
     if prop.get("minItems"):
         marks.append(f"at least {_number(prop['minItems'])}")
@@ -304,7 +305,7 @@ def _number(value: float) -> str:
     return f"{int(value):,}" if float(value).is_integer() else f"{value:g}"
 
 
-def _default(prop: dict) -> str:
+def _default(prop: dict[str, Any]) -> str:
     value = prop.get("default")
     if value is None:
         return "none"
@@ -323,12 +324,12 @@ def _default(prop: dict) -> str:
     return f"`{_scalar(value)}`"
 
 
-def _scalar(value) -> str:
+def _scalar(value: Any) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=(__doc__ or "").partition("\n")[0])
     parser.add_argument("markdown", type=Path, help="where to write the reference")
     parser.add_argument("schema", type=Path, help="where to write the JSON schema")
     args = parser.parse_args(argv)

@@ -15,7 +15,7 @@ from pydantic import Field, PrivateAttr, model_validator
 
 from flatland_ma.scenario.bounds import check_bounds
 from flatland_ma.scenario.checks import RESERVED_NAMES, check_names, check_teams
-from flatland_ma.scenario.errors import ScenarioError, SpecError, located
+from flatland_ma.scenario.errors import KeyPath, ScenarioError, SpecError, located
 from flatland_ma.scenario.spec_agent import (
     AgentSpec,
     ArmSegmentSpec,
@@ -50,7 +50,7 @@ from flatland_ma.scenario.spec_world import (
     WallStyle,
     ZoneSpec,
 )
-from flatland_ma.scenario.types import Flag, Name, Positive, Spec, TextureSpec, int_range
+from flatland_ma.scenario.types import Flag, Name, Positive, Spec, TextureSpec
 
 __all__ = [
     "AgentSpec",
@@ -93,14 +93,14 @@ __all__ = [
 class PhysicsSpec(Spec):
     dt: Positive = 1.0 / 30.0
     """Simulated seconds per environment step."""
-    substeps: int_range(1, 32) = 2
+    substeps: Annotated[int, Field(strict=True, ge=1, le=32)] = 2
     """pymunk steps per environment step (each of ``dt / substeps`` seconds)."""
-    iterations: int_range(1, 100) = 10
+    iterations: Annotated[int, Field(strict=True, ge=1, le=100)] = 10
     """Constraint-solver iterations per pymunk step."""
 
 
 class EpisodeSpec(Spec):
-    max_steps: int_range(1, 10_000_000) = 500
+    max_steps: Annotated[int, Field(strict=True, ge=1, le=10_000_000)] = 500
     """Episode length in environment steps; reaching it is reported as truncation."""
     shared_end: Flag = False
     """When one agent's episode ends (a goal, a terminal zone), everyone's does."""
@@ -111,7 +111,7 @@ class EpisodeSpec(Spec):
 class ScenarioSpec(Spec):
     description: Annotated[str, Field(strict=True, max_length=200)] = ""
     """One line shown by ``flatland-ma list``."""
-    n_agents: int_range(1, 64) = 1
+    n_agents: Annotated[int, Field(strict=True, ge=1, le=64)] = 1
     """How many agents share the world (named agent_0, agent_1, ...)."""
     episode: EpisodeSpec = EpisodeSpec()
     """Episode length and how episodes end."""
@@ -180,9 +180,11 @@ class ScenarioSpec(Spec):
         team = self.team_of(agent_index)
         return team.spawn if team is not None and team.spawn is not None else self.agent.spawn
 
-    def all_doors(self) -> list[tuple[tuple, DoorSpec]]:
+    def all_doors(self) -> list[tuple[KeyPath, DoorSpec]]:
         """Every door with its key path: standalone ones and those in room openings."""
-        doors = [(("doors", i), d) for i, d in enumerate(self.doors)]
+        doors: list[tuple[KeyPath, DoorSpec]] = [
+            (("doors", i), d) for i, d in enumerate(self.doors)
+        ]
         for r, room in enumerate(self.rooms):
             for o, opening in enumerate(room.openings):
                 if opening.door is not None:

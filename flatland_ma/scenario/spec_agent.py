@@ -14,7 +14,6 @@ from flatland_ma.scenario.types import (
     Real,
     Rect,
     Spec,
-    int_range,
 )
 
 Degrees = Annotated[float, Field(strict=True, ge=-180, le=180, allow_inf_nan=False)]
@@ -33,7 +32,7 @@ class CameraSpec(Spec):
     """Selects this sensor."""
     name: Name | None = None
     """Its observation's key when an agent has several sensors; none: its type."""
-    rays: int_range(1, 4096) = 64
+    rays: Annotated[int, Field(strict=True, ge=1, le=4096)] = 64
     """Number of rays, i.e. the width of the 1-D image."""
     fov: Annotated[float, Field(strict=True, gt=0, le=360, allow_inf_nan=False)] = 120.0
     """Field of view in degrees, centred on the heading."""
@@ -128,15 +127,9 @@ class AgentSpec(Spec):
     """Agents are discs of this radius."""
     mass: Positive = 1.0
     """Mass of an agent's body."""
-    colors: Annotated[tuple[Color, ...], Field(min_length=1)] = (
-        "blue",
-        "red",
-        "green",
-        "yellow",
-        "cyan",
-        "magenta",
-        "teal",
-        "brown",
+    colors: Annotated[tuple[Color, ...], Field(min_length=1)] = Field(
+        default=("blue", "red", "green", "yellow", "cyan", "magenta", "teal", "brown"),
+        validate_default=True,
     )
     """Agent i is drawn (and seen by other agents) in ``colors[i % len(colors)]``."""
     actions: Literal["discrete", "continuous"] = "discrete"
@@ -192,7 +185,7 @@ class TeamSpec(Spec):
 
     name: Name
     """Zones name it to reward it."""
-    size: int_range(1, 64) = 1
+    size: Annotated[int, Field(strict=True, ge=1, le=64)] = 1
     """How many agents it has (agents are numbered team by team)."""
     color: Color | None = None
     """Colour of its agents; none: the agents' colours."""

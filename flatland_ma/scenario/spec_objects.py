@@ -20,7 +20,6 @@ from flatland_ma.scenario.types import (
     TextureSpec,
     UnitInterval,
     Vec2,
-    int_range,
 )
 
 
@@ -29,7 +28,7 @@ class ObstacleBase(Spec):
     """Centre of the obstacle, in arena coordinates (origin at the bottom-left corner)."""
     angle: Real = 0.0
     """Rotation in degrees, counter-clockwise."""
-    color: Color = "darkgray"
+    color: Color = Field(default="darkgray", validate_default=True)
     """Colour of the obstacle."""
     texture: TextureSpec | None = None
     """A texture instead of the plain colour."""
@@ -117,7 +116,7 @@ class ItemSpec(Spec):
     """A texture instead of the plain colour."""
     reward: Real = 0.0
     """Reward to the agent that touches one."""
-    count: int_range(0, 10_000) = 1
+    count: Annotated[int, Field(strict=True, ge=0, le=10_000)] = 1
     """How many lie in the arena at once (ignored when ``positions`` is given)."""
     radius: Positive = 6.0
     """Items are discs of this radius, taken on touch."""
@@ -125,7 +124,9 @@ class ItemSpec(Spec):
     """Where they appear, at free places that agents can reach; None: the whole arena."""
     positions: Annotated[tuple[Vec2, ...], Field(max_length=10_000)] | None = None
     """Fixed places instead of random ones (one item at each); items may not overlap."""
-    respawn: Literal["immediate", "never"] | int_range(1, 1_000_000) = "immediate"
+    respawn: (
+        Literal["immediate", "never"] | Annotated[int, Field(strict=True, ge=1, le=1_000_000)]
+    ) = "immediate"
     """After one is taken: ``immediate``ly at a new random place, ``never``, or after this
     many steps. Items with fixed positions reappear where they were."""
     terminal: Flag = False

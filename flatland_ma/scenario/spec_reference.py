@@ -4,9 +4,11 @@ generated from it; the env itself never reads it."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
-from flatland_ma.scenario.types import Real, Spec, int_range
+from pydantic import Field
+
+from flatland_ma.scenario.types import Real, Spec
 
 
 class ReferenceSpec(Spec):
@@ -22,5 +24,5 @@ class ReferenceSpec(Spec):
     min_score: Real
     """The least mean score per agent (the sum of its rewards in an episode) the solver
     must reach."""
-    episodes: int_range(1, 1000) = 4
+    episodes: Annotated[int, Field(strict=True, ge=1, le=1000)] = 4
     """How many episodes the solver and random play each play."""

@@ -15,12 +15,12 @@ from flatland_ma.scenario.types import (
     Positive,
     Real,
     Rect,
+    Seed,
     Size2,
     Spec,
     TextureSpec,
     UnitInterval,
     Vec2,
-    int_range,
 )
 
 
@@ -29,7 +29,7 @@ class WallStyle(Spec):
 
     thickness: Length = 10.0
     """Thickness of the boundary walls (outside the playing area) and default of every wall."""
-    color: Color = "gray"
+    color: Color = Field(default="gray", validate_default=True)
     """Colour of the walls."""
     texture: TextureSpec | None = None
     """A texture instead of the plain colour."""
@@ -42,7 +42,7 @@ class ArenaSpec(Spec):
     things and check what agents can reach) grow with its area."""
     wall: WallStyle = WallStyle()
     """Style of the boundary walls; also the default of every other wall."""
-    floor_color: Color = "beige"
+    floor_color: Color = Field(default="beige", validate_default=True)
     """Only drawn by the renderer; rays never see the floor."""
 
 
@@ -100,7 +100,7 @@ class DoorSpec(Spec):
     """For a door on its own: the other end of its line."""
     thickness: Length | None = None
     """None: the thickness of the wall it sits in (the arena's for a door on its own)."""
-    color: Color = "brown"
+    color: Color = Field(default="brown", validate_default=True)
     """Colour of the panel."""
     texture: TextureSpec | None = None
     """A texture instead of the plain colour."""
@@ -223,9 +223,9 @@ class GridRoomsSpec(Spec):
 
     generator: Literal["grid_rooms"]
     """Selects this generator."""
-    rows: int_range(1, 30) = 2
+    rows: Annotated[int, Field(strict=True, ge=1, le=30)] = 2
     """Rooms along y."""
-    cols: int_range(1, 30) = 2
+    cols: Annotated[int, Field(strict=True, ge=1, le=30)] = 2
     """Rooms along x."""
     door_width: Length = 40.0
     """Width of the opening in each shared wall."""
@@ -264,7 +264,7 @@ class RandomObstaclesSpec(Spec):
 
     generator: Literal["random_obstacles"]
     """Selects this generator."""
-    count: int_range(1, 500) = 10
+    count: Annotated[int, Field(strict=True, ge=1, le=500)] = 10
     """How many obstacles."""
     shapes: Annotated[
         tuple[Literal["circle", "box", "triangle", "pentagon"], ...], Field(min_length=1)
@@ -272,11 +272,8 @@ class RandomObstaclesSpec(Spec):
     """Shapes to draw from, uniformly."""
     size: tuple[Positive, Positive] = (15.0, 40.0)
     """Smallest and largest diameter."""
-    colors: Annotated[tuple[Color, ...], Field(min_length=1)] = (
-        "green",
-        "cyan",
-        "yellow",
-        "white",
+    colors: Annotated[tuple[Color, ...], Field(min_length=1)] = Field(
+        default=("green", "cyan", "yellow", "white"), validate_default=True
     )
     """Colours to draw from, uniformly."""
     gap: NonNegative = 25.0
@@ -294,5 +291,5 @@ class LayoutSpec(Spec):
     per_episode: Flag = True
     """True: a new layout at every reset, drawn from the env's generator. False: one layout
     for every episode, drawn from ``seed``."""
-    seed: int_range(0, 2**31 - 1) = 0
+    seed: Seed = 0
     """The seed of the one layout drawn when ``per_episode`` is false."""

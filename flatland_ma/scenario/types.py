@@ -3,7 +3,7 @@ names and textures."""
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import (
     AfterValidator,
@@ -36,8 +36,14 @@ Color = Annotated[
     PlainSerializer(color_text),
     WithJsonSchema(COLOR_JSON_SCHEMA),
 ]
-"""A colour: written as a name, ``"#rrggbb"`` or ``[r, g, b]``; stored as three floats."""
+"""A colour: written as a name, ``"#rrggbb"`` or ``[r, g, b]``; stored as three floats.
+
+A default is written as in a file, ``Field(default="gray", validate_default=True)``:
+pydantic parses it into floats, and type checkers do not hold the name against the
+stored type (the JSON schema and the reference show the name)."""
 Name = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
+Seed = Annotated[int, Field(strict=True, ge=0, le=2**31 - 1)]
+"""A seed of a random generator."""
 
 
 def _ordered(rect: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
@@ -47,7 +53,7 @@ def _ordered(rect: tuple[float, float, float, float]) -> tuple[float, float, flo
     return rect
 
 
-RECT_JSON_SCHEMA: dict = {
+RECT_JSON_SCHEMA: dict[str, Any] = {
     "type": "array",
     "prefixItems": [{"type": "number", "title": corner} for corner in ("x0", "y0", "x1", "y1")],
     "minItems": 4,
@@ -58,10 +64,6 @@ Rect = Annotated[
     tuple[Real, Real, Real, Real], AfterValidator(_ordered), WithJsonSchema(RECT_JSON_SCHEMA)
 ]
 """An axis-aligned rectangle ``[x0, y0, x1, y1]`` (lower-left, then upper-right corner)."""
-
-
-def int_range(lo: int, hi: int):
-    return Annotated[int, Field(strict=True, ge=lo, le=hi)]
 
 
 class Spec(BaseModel):
@@ -86,12 +88,12 @@ class TextureSpec(Spec):
     ``period`` fixed in the world (x, y), not on the surface. gradient: from the first
     colour to the second and back over ``2 * period``. noise: cells of length ``period``,
     each a random mix of the two colours drawn from ``seed``."""
-    colors: tuple[Color, Color] = ("white", "black")
+    colors: tuple[Color, Color] = Field(default=("white", "black"), validate_default=True)
     """The two colours of the pattern."""
     period: Positive = 10.0
     """Length in world units of one stripe pair, tile, checker square, gradient ramp or
     noise cell."""
     duty: UnitInterval = 0.5
     """Share of each period in the first colour (stripes) or in grout (tiles)."""
-    seed: int_range(0, 2**31 - 1) = 0
+    seed: Seed = 0
     """Seed of the noise pattern."""

@@ -9,6 +9,7 @@ can exhaust the stack or the memory.
 from __future__ import annotations
 
 import yaml
+import yaml.composer
 
 from flatland_ma.scenario.errors import Marks, Problem, ScenarioError
 
@@ -63,14 +64,9 @@ def parse_yaml(text: str, source: str, marks: Marks) -> dict:
     try:
         data = reader.convert(node, (), 0)
     except _TooMany:
-        reader.problems.append(
-            Problem(
-                source,
-                reader.last_line,
-                (),
-                f"the file expands to more than {MAX_VALUES:,} values (through aliases?)",
-            )
-        )
+        message = f"the file expands to more than {MAX_VALUES:,} values (through aliases?)"
+        too_many = Problem(source, reader.last_line, (), message)
+        raise ScenarioError([*reader.problems, too_many]) from None
     if reader.problems:
         raise ScenarioError(reader.problems)
     if not isinstance(data, dict):
