@@ -28,6 +28,12 @@ class Kinds(dict):
             raise KeyError(f"no {self.what} of kind {kind!r}; known kinds: {known}")
         return super().__getitem__(kind)
 
+    def every(self) -> list[type]:
+        """Every class of the package's kinds, sorted by kind name."""
+        if not self._found:
+            self.discover()
+        return [self[kind] for kind in sorted(self)]
+
     def discover(self) -> None:
         """Import every module of the package (each class registers itself)."""
         package = importlib.import_module(self.package)

@@ -13,7 +13,7 @@ from pettingzoo.test import parallel_api_test
 import flatland_ma
 from flatland_ma.agents.actuators import Actuator
 from flatland_ma.agents.grasp import Grasper
-from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head
+from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Control, Head, Part
 from flatland_ma.build.bodies import make_parts
 from flatland_ma.build.generators import GENERATOR_KINDS
 from flatland_ma.scenario.errors import ScenarioError
@@ -246,3 +246,56 @@ def test_a_zone_entry_is_logged_once_per_entry():
     assert entries == 1
     assert math.isclose(env.episode.task.records[0].score, zone.reward) or zone.once
     assert np.isfinite(env.episode.task.records[0].score)
+
+
+class Beacon(Part):
+    """A test part with no body: a lamp an agent switches on and off (one control)."""
+
+    def __init__(self):
+        self.controls = (Control("beacon", "beacon_on", "beacon_off"),)
+        self.label, self.on = "beacon", False
+
+    @classmethod
+    def for_agent(cls, agent):
+        return [cls()] if agent.max_speed == 123.0 else []
+
+    def build(self, agent):
+        agent.beacon = self
+        return None
+
+    def command(self, values, angles):
+        (value,) = values
+        if value is not None:
+            self.on = value > 0
+
+    def reach(self):
+        return 0.0
+
+    def top_speed(self, base_speed, base_turn):
+        return base_speed
+
+    def half_width(self):
+        return 0.0
+
+
+def test_a_new_part_kind_plugs_in_through_the_registry(monkeypatch):
+    monkeypatch.setitem(PART_KINDS, "beacon", Beacon)
+    plain = flatland_ma.parallel_env("fruits_poisons")
+    assert plain.action_space("agent_0").n == 3  # only agents that declare it have it
+    env = flatland_ma.parallel_env("fruits_poisons", agent={"max_speed": 123.0})
+    assert env.action_names() == (
+        "forward",
+        "rotate_left",
+        "rotate_right",
+        "stay",
+        "beacon_on",
+        "beacon_off",
+    )
+    env.reset(seed=0)
+    lamp = env.episode.bodies[0].beacon
+    env.step({"agent_0": env.action_index("beacon_on")})
+    assert lamp.on
+    env.step({"agent_0": env.action_index("forward")})  # other actions leave it alone
+    assert lamp.on
+    env.step({"agent_0": env.action_index("beacon_off")})
+    assert not lamp.on

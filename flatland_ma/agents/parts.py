@@ -7,8 +7,11 @@ joints onto the agent, turns this step's values of its controls into motor comma
 move (for start places and for the check that no part is fast enough to cross a wall in
 one physics substep). The actuator derives the action spaces from the parts' controls.
 
-A new part is one subclass, named by its ``kind`` in the class statement, plus its spec;
-the builder finds it in ``PART_KINDS``.
+A new part is one subclass, named by its ``kind`` in the class statement, plus its spec
+(a key of the scenario's ``agent`` section); its ``for_agent`` makes the parts an agent's
+spec declares, and the builder asks every kind in ``PART_KINDS``. (Heads, arm segments
+and graspers are made by the builder itself, which names their controls after the arms'
+layout.)
 
 Parts with a body (``Link``: the head, each arm segment) sit on a pivot with a rotary
 limit and a torque-limited motor: the command sets the motor's rate, and with rate 0 the
@@ -60,6 +63,12 @@ class Part(ABC):
         if kind is not None:
             cls.kind = kind
             PART_KINDS[kind] = cls
+
+    @classmethod
+    def for_agent(cls, agent) -> list[Part]:
+        """The parts of this kind that ``agent`` (the scenario's agent spec) declares, in
+        order; none by default."""
+        return []
 
     @abstractmethod
     def build(self, agent: AgentBody) -> Entity | None:

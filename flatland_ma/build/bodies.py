@@ -12,7 +12,7 @@ import math
 
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
-from flatland_ma.agents.parts import ArmSegment, Head, Part, agent_filter
+from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Part, agent_filter
 from flatland_ma.scenario.spec_agent import AgentSpec
 from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
 from flatland_ma.world.looks import RGB
@@ -22,7 +22,8 @@ MOTOR_KEYS = ("radius", "mass", "max_speed", "max_turn_rate", "max_force", "max_
 
 
 def make_parts(agent: AgentSpec) -> list[Part]:
-    """The agent's parts, in the order of their controls: head, arm segments, graspers."""
+    """The agent's parts, in the order of their controls: head, arm segments, graspers,
+    then the parts of any other kind (by kind name)."""
     parts: list[Part] = []
     if agent.head is not None:
         parts.append(Head(**agent.head.model_dump()))
@@ -49,6 +50,8 @@ def make_parts(agent: AgentSpec) -> list[Part]:
     for label, where, tip, grasper in tips:
         prefix = "" if len(tips) == 1 else f"{label}_"
         parts.append(Grasper(f"{label}_grip", prefix, where, tip, **grasper.model_dump()))
+    for kind in PART_KINDS.every():  # any other kind the agent declares
+        parts += kind.for_agent(agent)
     return parts
 
 
