@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
+from typing import ClassVar
 
 
 class Kinds(dict):
@@ -40,3 +41,17 @@ class Kinds(dict):
         for module in pkgutil.iter_modules(package.__path__):
             importlib.import_module(f"{self.package}.{module.name}")
         self._found = True
+
+
+class Kinded:
+    """Base of the classes chosen by kind: a subclass that names ``kind="..."`` in its class
+    statement joins its family's ``KINDS`` (set by the family's base class)."""
+
+    KINDS: ClassVar[Kinds]
+    kind: ClassVar[str]
+
+    def __init_subclass__(cls, kind: str | None = None, **kwargs):
+        super().__init_subclass__(**kwargs)
+        if kind is not None:
+            cls.kind = kind
+            cls.KINDS[kind] = cls

@@ -25,12 +25,11 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar
 
 import pymunk
 
 from flatland_ma.agents.body import AgentBody
-from flatland_ma.registry import Kinds
+from flatland_ma.registry import Kinded, Kinds
 from flatland_ma.world.entities import Category, CollisionType, Entity, darker
 
 PART_KINDS = Kinds("flatland_ma.agents", "part")
@@ -47,22 +46,16 @@ class Control:
     minus: str
 
 
-class Part(ABC):
+class Part(Kinded, ABC):
     """Base of every body part (see the module docstring).
 
     Required: ``controls``, ``build``, ``command``, ``reach``, ``top_speed``,
     ``half_width``; ``label`` names it in messages (e.g. ``arms[0]``).
     """
 
-    kind: ClassVar[str]
+    KINDS = PART_KINDS
     controls: tuple[Control, ...] = ()
     label: str = ""
-
-    def __init_subclass__(cls, kind: str | None = None, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if kind is not None:
-            cls.kind = kind
-            PART_KINDS[kind] = cls
 
     @classmethod
     def for_agent(cls, agent) -> list[Part]:

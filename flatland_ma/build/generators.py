@@ -10,34 +10,27 @@ or obstacles placed in the standing world. A new generator is one subclass, name
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
 
 import numpy as np
 
 from flatland_ma.build.ground import Ground
 from flatland_ma.build.layout import DoorPiece, Layout, axis_piece, axis_point, merge, style
 from flatland_ma.build.scatter import scatter_obstacles
-from flatland_ma.registry import Kinds
+from flatland_ma.registry import Kinded, Kinds
 from flatland_ma.scenario.schema import DoorSpec, ScenarioSpec
 
 GENERATOR_KINDS = Kinds("flatland_ma.build", "generator")
 """Every generator class, by the ``generator`` name files give it."""
 
 
-class Generator(ABC):
+class Generator(Kinded, ABC):
     """Base of every generator: ``spec`` is its entry in the file, ``scenario`` the whole
     file, ``path`` the entry's key path (for messages)."""
 
-    kind: ClassVar[str]
+    KINDS = GENERATOR_KINDS
 
     def __init__(self, spec, scenario: ScenarioSpec, path: tuple):
         self.spec, self.scenario, self.path = spec, scenario, path
-
-    def __init_subclass__(cls, kind: str | None = None, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if kind is not None:
-            cls.kind = kind
-            GENERATOR_KINDS[kind] = cls
 
     @abstractmethod
     def generate(self, ground: Ground, rng: np.random.Generator) -> None:

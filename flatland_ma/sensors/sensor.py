@@ -20,21 +20,21 @@ Required: ``name``, ``mount``, ``space``, ``read``. Ray sensors also set ``angle
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
 
-from flatland_ma.registry import Kinds
+from flatland_ma.registry import Kinded, Kinds
 
 SENSOR_KINDS = Kinds("flatland_ma.sensors", "sensor")
 """Every sensor class, by the ``type`` that scenario files give it."""
 
 
-class Sensor(ABC):
+class Sensor(Kinded, ABC):
     """Base of every sensor (see the module docstring)."""
 
-    kind: ClassVar[str]
+    KINDS = SENSOR_KINDS
     name: str
     """The observation's key when an agent has several sensors."""
     mount: str
@@ -45,12 +45,6 @@ class Sensor(ABC):
     view_range: float = 0.0
     half_fov: float = 0.0
     falloff: int = 0
-
-    def __init_subclass__(cls, kind: str | None = None, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if kind is not None:
-            cls.kind = kind
-            SENSOR_KINDS[kind] = cls
 
     @property
     def n_rays(self) -> int:

@@ -27,13 +27,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import ClassVar
 
 import numpy as np
 
 from flatland_ma.agents.body import AgentBody
 from flatland_ma.agents.grasp import Hands
-from flatland_ma.registry import Kinds
+from flatland_ma.registry import Kinded, Kinds
 from flatland_ma.world.contacts import ContactLog
 from flatland_ma.world.entities import ItemGroup, Rect
 from flatland_ma.world.placement import Placer
@@ -105,16 +104,10 @@ class Step:
         return [i for i, record in enumerate(self.records) if not record.done]
 
 
-class Rule(ABC):
+class Rule(Kinded, ABC):
     """Base of every rule (see the module docstring)."""
 
-    kind: ClassVar[str]
-
-    def __init_subclass__(cls, kind: str | None = None, **kwargs):
-        super().__init_subclass__(**kwargs)
-        if kind is not None:
-            cls.kind = kind
-            RULE_KINDS[kind] = cls
+    KINDS = RULE_KINDS
 
     def reset(self, ctx: TaskContext) -> None:
         """Set up for a new episode (nothing to set up by default)."""
