@@ -21,10 +21,10 @@ demo: $(STAMP)
 
 # The default suite, spread over every core (pytest-xdist); `make test-slow` runs the long ones.
 test: $(STAMP)
-	$(BIN)/python -m pytest -n auto
+	$(BIN)/python -m pytest -n auto --dist worksteal
 
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -m slow
+	$(BIN)/python -m pytest -n auto -m slow
 
 bench: $(STAMP)
 	$(BIN)/flatland-ma bench

@@ -200,6 +200,7 @@ def test_dqn_with_the_depth_channel(tmp_path):
     assert summary(out)["args"]["use_depth"] is True
 
 
+@pytest.mark.slow  # three processes or more (~20 s): make test-slow
 def test_a3c_processes_share_one_run_log(tmp_path):
     out = tmp_path / "seed_0.csv"
     run_module(
@@ -213,6 +214,7 @@ def test_a3c_processes_share_one_run_log(tmp_path):
     assert summary(out)["algorithm"] == "a3c"
 
 
+@pytest.mark.slow  # three processes or more (~20 s): make test-slow
 def test_a2c_reproduces_exactly_from_a_seed(tmp_path):
     logs = []
     for name in ("first", "second"):
@@ -384,6 +386,7 @@ def test_plot_reads_logs_from_before_and_after_the_counters_came_from_the_scenar
     assert "| key / goal per episode (final) |" in lines[0] and "| 1.0 / 1.0 |" in lines[2]
 
 
+@pytest.mark.slow  # three processes or more (~20 s): make test-slow
 def test_runner_resumes_and_plot_draws_the_figure(tmp_path):
     args = [
         "dqn",

@@ -14,6 +14,7 @@ import flatland_ma
 from flatland_ma.agents.actuators import Actuator
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Control, Head, Part
+from flatland_ma.build import feasibility
 from flatland_ma.build.bodies import make_parts
 from flatland_ma.build.generators import GENERATOR_KINDS
 from flatland_ma.scenario.errors import ScenarioError
@@ -72,8 +73,18 @@ def test_loading_every_scenario_builds_no_space(monkeypatch):
     for name in flatland_ma.list_scenarios():
         flatland_ma.load_scenario(name)
     assert made == []
-    flatland_ma.check_scenario("fruits_poisons")  # the feasibility checks do build
+    flatland_ma.check_scenario("fruits_poisons", description="new")  # the checks do build
     assert made
+
+
+def test_a_scenario_that_passed_is_not_checked_again(monkeypatch):
+    calls = []
+    monkeypatch.setattr(feasibility, "check_layout", calls.append)
+    flatland_ma.check_scenario("maze_goal", description="once")
+    flatland_ma.parallel_env("maze_goal", description="once")
+    assert len(calls) == 1
+    flatland_ma.check_scenario("maze_goal", description="twice")  # other contents: checked
+    assert len(calls) == 2
 
 
 def test_several_sensors_give_a_dict_observed_in_one_kernel_call():

@@ -22,12 +22,20 @@ from flatland_ma.scenario.schema import ScenarioSpec
 
 CHECK_SEEDS = 4
 """How many seeds ``check_layout`` builds a scenario with."""
+PASSED_KEPT = 256
+"""How many passed scenarios a process remembers (each is checked once)."""
+_passed: dict[tuple[str, str], None] = {}
+"""The scenarios that passed, by source and contents: a spec is frozen and the checks
+read nothing else, so an env made again from the same file is not checked again."""
 
 
 def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> ScenarioSpec:
     """Load a scenario (by name, path or spec) and run every check on it; raise
     ``ScenarioError`` naming the file, line and key of each fault found."""
     spec = scenario if isinstance(scenario, ScenarioSpec) else load_scenario(scenario, **overrides)
+    key = (spec._origin[0], spec.model_dump_json())
+    if key in _passed:
+        return spec
     try:
         check_parts(spec)
         check_layout(spec)
@@ -39,6 +47,9 @@ def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> Sce
         source = spec._origin[0]
         message = f"internal error while checking ({type(err).__name__}: {err}); please report it"
         raise ScenarioError([Problem(source, None, (), message)]) from err
+    _passed[key] = None
+    while len(_passed) > PASSED_KEPT:
+        del _passed[next(iter(_passed))]
     return spec
 
 
