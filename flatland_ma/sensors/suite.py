@@ -7,6 +7,8 @@ kernel call, and lets each sensor read its observation from the results.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numba as nb
 from gymnasium import spaces
 
@@ -16,6 +18,26 @@ from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.world.entities import Entity
 from flatland_ma.world.world import World
+
+_KERNELS: dict[tuple, Callable] = {}
+"""The compiled kernel for each layout of its arguments (in practice one per process)."""
+
+
+def compiled_kernel(args: tuple) -> Callable:
+    """The ray kernel compiled for these arguments' types.
+
+    numba types named tuples in Python on every call (several microseconds, a tenth of a
+    small world's kernel time), and typing them once costs a millisecond, too much for
+    every reset: the compiled function is kept per layout of the arrays (dtype, number of
+    dimensions, contiguity, writability), which is the same every episode. The arrays are
+    only ever written in place, so the function stays valid for them.
+    """
+    arrays = [a for arg in args for a in (arg if isinstance(arg, tuple) else (arg,))]
+    key = tuple((a.dtype.str, a.ndim, a.flags.c_contiguous, a.flags.writeable) for a in arrays)
+    if key not in _KERNELS:
+        signature = tuple(nb.typeof(a) for a in args)
+        _KERNELS[key] = kernel.observe.compile(signature)  # type: ignore[attr-defined]
+    return _KERNELS[key]
 
 
 def observation_space(sensors: list[Sensor]) -> spaces.Space:
@@ -62,11 +84,7 @@ class Sensors:
         self.image, self.distance, self.hit_entity = self.out
         self._args = (geo.pose, geo.shapes, geo.grid, geo.looks, self.eyes, self.out)
         self._args += (Scratch.for_shapes(geo.shapes),)
-        # numba types named tuples in Python on every call (several microseconds, a tenth
-        # of a small world's kernel time): type these arguments once and keep the
-        # compiled function. The arrays are only ever written in place.
-        signature = tuple(nb.typeof(a) for a in self._args)
-        self._kernel = kernel.observe.compile(signature)  # type: ignore[attr-defined]  # a numba dispatcher
+        self._kernel = compiled_kernel(self._args)
 
     def observe(self) -> None:
         """Pick up what the world changed, read the moving bodies' poses and cast every
