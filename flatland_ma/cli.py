@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -52,14 +53,21 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--steps", type=int, default=20_000)
 
     args = parser.parse_args(argv)
-    return {
+    command = {
         "list": _list,
         "validate": _validate,
         "demo": _demo,
         "record": _record,
         "play": _play,
         "bench": _bench,
-    }[args.command](args)
+    }[args.command]
+    try:
+        status = command(args)
+        sys.stdout.flush()  # here, where a closed pipe can still be caught
+        return status
+    except BrokenPipeError:  # e.g. ``flatland-ma list | head``: the reader left early
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 def _list(args) -> int:
@@ -169,8 +177,6 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
 
 
 def _play(args) -> int:
-    import os
-
     from flatland_ma.envs.parallel import FlatlandParallelEnv
 
     if not os.environ.get("DISPLAY") and os.environ.get("SDL_VIDEODRIVER") != "dummy":

@@ -87,3 +87,22 @@ def test_a_recording_keeps_the_first_frame_and_the_one_that_ends_the_episode(tmp
     assert infos["agent_0"]["deliveries"] == 1
     assert len(kept) == 2
     assert (kept[0] == first).all() and (kept[-1] == env.render()).all()
+
+
+def test_list_into_a_reader_that_leaves_early_prints_no_traceback():
+    """``flatland-ma list | head -1``: the pipe closes after one line."""
+    import subprocess
+    import sys
+
+    process = subprocess.Popen(
+        [sys.executable, "-m", "flatland_ma.cli", "list"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        bufsize=0,
+    )
+    assert process.stdout is not None and process.stderr is not None
+    first = process.stdout.read(20)
+    process.stdout.close()
+    error = process.stderr.read().decode()
+    assert process.wait(timeout=60) == 0
+    assert first and "Traceback" not in error and "BrokenPipe" not in error
