@@ -184,6 +184,7 @@ def test_dqn_trains_and_logs_each_episode(tmp_path):
     check_evaluation(summary(out), episodes=2)
 
 
+@pytest.mark.slow  # a variant of the DQN smoke test (~10 s): make test-slow
 def test_dqn_with_the_depth_channel(tmp_path):
     out = tmp_path / "seed_0.csv"
     run_module(

@@ -4,6 +4,7 @@ keep the hands mostly closed among many graspable objects: the physics stays san
 import math
 
 import numpy as np
+import pytest
 
 import flatland_ma
 from flatland_ma.agents.grasp import HOLD_BIAS
@@ -118,6 +119,7 @@ def shapes_sink(body, side, width, height):
     return worst
 
 
+@pytest.mark.slow  # 10,000 steps at the strongest settings (~16 s): make test-slow
 def test_physics_stays_sane_at_the_strongest_settings_under_random_actions():
     env = stress_env()
     env.reset(seed=0)

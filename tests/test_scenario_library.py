@@ -150,6 +150,7 @@ def successes(env, make_first, make_others, episodes) -> tuple[int, int]:
     return anyone, mine
 
 
+@pytest.mark.slow  # 70 episodes per task, 5 tasks (~25 s): make test-slow
 @pytest.mark.parametrize("scenario", PART_TASKS)
 def test_random_play_almost_never_solves_a_part_task_and_the_carrier_nearly_always_does(
     scenario,
