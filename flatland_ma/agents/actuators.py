@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -84,6 +85,19 @@ def continuous_names(parts: Sequence[Part]) -> tuple[str, ...]:
     return CONTINUOUS_DIMENSIONS + tuple(c.name for part in parts for c in part.controls)
 
 
+def _numbers_of(agent: str, action: object, space: spaces.Space) -> object:
+    """A tensor's numbers as a numpy array (a 0-d one for a scalar); anything else as is."""
+    detach = getattr(action, "detach", None)
+    if not callable(detach):
+        return action
+    try:
+        tensor: Any = detach()
+        tensor = tensor.cpu() if callable(getattr(tensor, "cpu", None)) else tensor
+        return np.asarray(tensor.numpy() if callable(getattr(tensor, "numpy", None)) else tensor)
+    except Exception as err:  # any failure to read it is a bad action, not a crash
+        raise InvalidActionError(agent, action, space, f"cannot read its numbers ({err})") from err
+
+
 class Actuator:
     """Validates one agent's actions and turns them into commands for its body.
 
@@ -109,10 +123,15 @@ class Actuator:
         return self.names.index(name)
 
     def check(self, agent: str, action: object):
-        """Return the action in canonical form, or raise ``InvalidActionError``."""
+        """Return the action in canonical form, or raise ``InvalidActionError``.
+
+        Tensors (torch and the like: anything with ``detach``, on any device that has
+        ``cpu``) are read as the numbers they hold, with or without a gradient.
+        """
+        value = _numbers_of(agent, action, self.space)
         if self.mode == "discrete":
-            return self._check_discrete(agent, action)
-        return self._check_continuous(agent, action)
+            return self._check_discrete(agent, value)
+        return self._check_continuous(agent, value)
 
     def apply(self, body: AgentBody, action) -> None:
         """Command the body; ``action`` must have passed ``check``."""

@@ -67,15 +67,19 @@ class FlatlandGymEnv(gymnasium.Env):
         if not par.agents:
             raise RuntimeError("the episode is over: call reset()")
         checked = self._actuator.check(self.agent, action)
-        _, rewards, terminated, truncated = par._advance([checked])
-        episode = par.running
-        return (
-            episode.sensors.observation(0),
-            rewards[0],
-            terminated[0],
-            truncated,
-            episode.task.info(0),
-        )
+        par.enter()
+        try:
+            _, rewards, terminated, truncated = par._advance([checked])
+            episode = par.running
+            return (
+                episode.sensors.observation(0),
+                rewards[0],
+                terminated[0],
+                truncated,
+                episode.task.info(0),
+            )
+        finally:
+            par.leave()
 
     def render(self):
         return self.parallel_env.render()

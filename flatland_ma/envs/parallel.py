@@ -17,6 +17,7 @@ the original would (pymunk's own pickles lose cached contact impulses and drift)
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -90,6 +91,7 @@ class FlatlandParallelEnv(ParallelEnv):
         self._reset_state: Mapping | None = None
         self._log: list[list] = []
         self._renderer = None
+        self._in_use = threading.Lock()
 
     # -- spaces -------------------------------------------------------------------------
 
@@ -122,7 +124,34 @@ class FlatlandParallelEnv(ParallelEnv):
 
     # -- the loop -----------------------------------------------------------------------
 
+    def enter(self) -> None:
+        """Claim the env for one call. pymunk spaces are not thread-safe: a second thread
+        inside the env at once would corrupt it, so it gets a clear error instead (and the
+        env is left as it was). ``leave`` releases it."""
+        if not self._in_use.acquire(blocking=False):
+            raise RuntimeError(
+                "this env is in use by another thread at the same time; an env (its "
+                "pymunk space) must be used from one thread at a time: make one env per thread"
+            )
+
+    def leave(self) -> None:
+        self._in_use.release()
+
     def reset(self, seed: int | None = None, options: dict | None = None):
+        self.enter()
+        try:
+            return self._reset(seed)
+        finally:
+            self.leave()
+
+    def step(self, actions: Mapping):
+        self.enter()
+        try:
+            return self._step(actions)
+        finally:
+            self.leave()
+
+    def _reset(self, seed: int | None):
         if seed is not None or self._np_random is None:
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         self._reset_state = self.np_random.bit_generator.state
@@ -132,7 +161,7 @@ class FlatlandParallelEnv(ParallelEnv):
         infos = {a: task.info(i) for i, a in enumerate(self.possible_agents)}
         return observations, infos
 
-    def step(self, actions: Mapping):
+    def _step(self, actions: Mapping):
         checked = self._check(actions)
         live, rewards, terminated, truncated = self._advance(checked)
         sensors, task, names = self.running.sensors, self.running.task, self.possible_agents
@@ -231,7 +260,11 @@ class FlatlandParallelEnv(ParallelEnv):
 
         if self._renderer is None:
             self._renderer = Renderer(self.spec)
-        frame = self._renderer.frame(self)
+        self.enter()
+        try:
+            frame = self._renderer.frame(self)
+        finally:
+            self.leave()
         if self.render_mode == "rgb_array":
             return frame
         self._renderer.show(frame, self.metadata["render_fps"])
