@@ -250,7 +250,7 @@ def fault(tmp_path, text: str):
         ),
         ("arena: {size: [100000000, 100000000]}\n", "arena.size[0]", "less than or equal to 10000"),
         (
-            "layout: {generators: [{generator: maze, cell: 0.001}]}\n",
+            "layout: {generators: [{generator: maze, cell: 0.5}]}\n",
             "layout.generators[0].cell",
             "too big",
         ),

@@ -37,7 +37,7 @@ files.
 - **Colours** are a name (COLOR_NAMES), `"#rrggbb"`, or `[r, g, b]` in 0-255.
 - **Every field has a default** unless marked *required*. Unknown keys, wrong types and
   out-of-range values are errors that name the file, the line and the key path, e.g.
-  `my.yaml:12: obstacles[2].radius: Input should be greater than 0; got -3`.
+  `my.yaml:12: obstacles[2].radius: Input should be greater than or equal to 0.1; got -3`.
 - **`extends: NAME`** at the top starts from another scenario (a shipped name or a path)
   and merges this file over it: mappings key by key, anything else (lists included)
   replaced whole.
@@ -56,7 +56,10 @@ files.
   may cover at most 30% of the free floor they are drawn on).
 - **Limits**: arena sides, wall thicknesses and widths are at most 10,000; a maze has at
   most 10,000 cells; a file may nest 32 levels deep and expand (through aliases) to at
-  most 100,000 values.
+  most 100,000 values. Numbers that reach the physics or the rays are physically
+  plausible: lengths (radii, widths, thicknesses, texture periods) at least 0.1, masses
+  from 0.001 to 1,000,000, a time step from 0.001 to 1 second, top speeds up to 100,000,
+  friction up to 100 (each field's table gives its range).
 - **Editor completion**: `scenario.schema.json`, shipped beside the scenarios, is the JSON
   schema of this format, written from the same models as this page (`python -c "import
   flatland_ma.scenario.loader as s; print(s.schema_path())"` prints where it is installed).

@@ -50,7 +50,7 @@ from flatland_ma.scenario.spec_world import (
     WallStyle,
     ZoneSpec,
 )
-from flatland_ma.scenario.types import Flag, Name, Positive, Spec, TextureSpec
+from flatland_ma.scenario.types import Flag, Name, Spec, TextureSpec
 
 __all__ = [
     "AgentSpec",
@@ -90,8 +90,12 @@ __all__ = [
 ]
 
 
+MIN_DT, MAX_DT = 1e-3, 1.0
+"""The shortest and longest simulated step, in seconds (the default is 1/30)."""
+
+
 class PhysicsSpec(Spec):
-    dt: Positive = 1.0 / 30.0
+    dt: Annotated[float, Field(strict=True, ge=MIN_DT, le=MAX_DT)] = 1.0 / 30.0
     """Simulated seconds per environment step."""
     substeps: Annotated[int, Field(strict=True, ge=1, le=32)] = 2
     """pymunk steps per environment step (each of ``dt / substeps`` seconds)."""

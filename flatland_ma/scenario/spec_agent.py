@@ -7,13 +7,16 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from flatland_ma.scenario.types import (
+    MAX_ARENA_SIDE,
     Color,
+    Distance,
+    Length,
+    Mass,
     Name,
-    NonNegative,
-    Positive,
     Real,
     Rect,
     Spec,
+    Speed,
 )
 
 Degrees = Annotated[float, Field(strict=True, ge=-180, le=180, allow_inf_nan=False)]
@@ -36,7 +39,7 @@ class CameraSpec(Spec):
     """Number of rays, i.e. the width of the 1-D image."""
     fov: Annotated[float, Field(strict=True, gt=0, le=360, allow_inf_nan=False)] = 120.0
     """Field of view in degrees, centred on the heading."""
-    range: Positive = 300.0
+    range: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 300.0
     """Farthest distance a ray sees; depth is normalised by it."""
     falloff: Literal["linear", "none"] = "linear"
     """How colour intensity falls with distance: ``linear`` is ``1 - d / range``."""
@@ -62,9 +65,9 @@ class HeadSpec(Spec):
     """A head: a small disc ahead of the base's centre, turning about that centre
     within limits, driven by a motor."""
 
-    radius: Positive = 4.0
+    radius: Length = 4.0
     """Radius of the head's disc."""
-    offset: NonNegative = 6.0
+    offset: Distance = 6.0
     """Distance of the head's centre from the base's centre."""
     max_angle: Annotated[float, Field(strict=True, gt=0, le=180)] = 90.0
     """How far the head turns either way from the heading, in degrees."""
@@ -72,21 +75,21 @@ class HeadSpec(Spec):
     """Top speed of the head's turn relative to the base, degrees per second."""
     max_torque: Annotated[float, Field(strict=True, gt=0, le=MAX_TORQUE)] = 50_000.0
     """Largest torque of the head's motor."""
-    mass: Positive = 0.1
+    mass: Mass = 0.1
     """Mass of the head."""
 
 
 class ArmSegmentSpec(Spec):
-    length: Positive = 16.0
+    length: Length = 16.0
     """Length of the segment, from its joint to the next."""
-    width: Positive = 6.0
+    width: Length = 6.0
     """Thickness of the segment."""
     min_angle: Degrees = -90.0
     """Lowest angle of its joint, relative to the previous segment (or to the mount), in
     degrees."""
     max_angle: Degrees = 90.0
     """Highest angle of its joint."""
-    mass: Positive = 0.2
+    mass: Mass = 0.2
     """Mass of the segment."""
 
 
@@ -94,11 +97,11 @@ class GrasperSpec(Spec):
     """A grasper (hook) at the tip of an arm: closing it while it touches a graspable
     object attaches the object; opening it lets go."""
 
-    radius: Positive = 3.0
+    radius: Length = 3.0
     """Radius of the grasper's disc at the arm's tip."""
     strength: Annotated[float, Field(strict=True, gt=0, le=MAX_FORCE)] = 4_000.0
     """Largest force the hold transmits; pulled harder, the object slips."""
-    break_distance: Positive = 6.0
+    break_distance: Length = 6.0
     """How far the object may slip from the grasper before the hold breaks."""
 
 
@@ -123,9 +126,9 @@ class ArmSpec(Spec):
 class AgentSpec(Spec):
     """The body, motor, camera and start of every agent."""
 
-    radius: Positive = 10.0
+    radius: Length = 10.0
     """Agents are discs of this radius."""
-    mass: Positive = 1.0
+    mass: Mass = 1.0
     """Mass of an agent's body."""
     colors: Annotated[tuple[Color, ...], Field(min_length=1)] = Field(
         default=("blue", "red", "green", "yellow", "cyan", "magenta", "teal", "brown"),
@@ -138,7 +141,7 @@ class AgentSpec(Spec):
     grasper; ``continuous``: Box(-1, 1, (n,)) longitudinal, lateral, angular, then one
     entry per head, joint and grasper (``n`` is 3 for a plain body). ``action_names()`` on
     the env lists them."""
-    max_speed: Positive = 200.0
+    max_speed: Speed = 200.0
     """Top linear speed, units per second."""
     max_turn_rate: Annotated[float, Field(strict=True, gt=0, le=MAX_RATE)] = 300.0
     """Top angular speed, degrees per second."""

@@ -10,9 +10,10 @@ from pydantic import Field, model_validator
 from flatland_ma.scenario.types import (
     Color,
     Flag,
+    Friction,
+    Length,
+    Mass,
     Name,
-    NonNegative,
-    Positive,
     Real,
     Rect,
     Size2,
@@ -34,13 +35,13 @@ class ObstacleBase(Spec):
     """A texture instead of the plain colour."""
     movable: Flag = False
     """Movable obstacles are dynamic bodies that agents can push."""
-    mass: Positive = 10.0
+    mass: Mass = 10.0
     """Mass of a movable obstacle."""
-    friction: NonNegative = 0.5
+    friction: Friction = 0.5
     """Surface (Coulomb) friction against agents and other obstacles."""
     elasticity: UnitInterval = 0.0
     """Bounciness of its surface (0: none, 1: perfectly elastic)."""
-    floor_friction: NonNegative = 0.5
+    floor_friction: Friction = 0.5
     """Resistance to sliding on the floor, for movable obstacles (force = this x mass x g)."""
     tag: Name | None = None
     """A name zones refer to (``accepts``) to take this object as a delivery."""
@@ -63,7 +64,7 @@ class ObstacleBase(Spec):
 class CircleObstacle(ObstacleBase):
     shape: Literal["circle"]
     """Selects a circle."""
-    radius: Positive
+    radius: Length
     """Its radius."""
 
     def bounding_radius(self) -> float:
@@ -118,7 +119,7 @@ class ItemSpec(Spec):
     """Reward to the agent that touches one."""
     count: Annotated[int, Field(strict=True, ge=0, le=10_000)] = 1
     """How many lie in the arena at once (ignored when ``positions`` is given)."""
-    radius: Positive = 6.0
+    radius: Length = 6.0
     """Items are discs of this radius, taken on touch."""
     spawn: Rect | None = None
     """Where they appear, at free places that agents can reach; None: the whole arena."""

@@ -8,11 +8,11 @@ from pydantic import Field, model_validator
 
 from flatland_ma.scenario.types import (
     Color,
+    Distance,
     Flag,
     Length,
+    Mass,
     Name,
-    NonNegative,
-    Positive,
     Real,
     Rect,
     Seed,
@@ -92,7 +92,7 @@ class DoorSpec(Spec):
     """A switched door stays open once opened."""
     swing: Annotated[float, Field(strict=True, gt=0, le=180)] = 100.0
     """How far a hinged door turns either way from shut, in degrees."""
-    mass: Positive = 4.0
+    mass: Mass = 4.0
     """Mass of a hinged door's panel."""
     start: Vec2 | None = None
     """For a door on its own: one end of its line (a hinged door's hinge)."""
@@ -270,13 +270,13 @@ class RandomObstaclesSpec(Spec):
         tuple[Literal["circle", "box", "triangle", "pentagon"], ...], Field(min_length=1)
     ] = ("circle", "box", "triangle", "pentagon")
     """Shapes to draw from, uniformly."""
-    size: tuple[Positive, Positive] = (15.0, 40.0)
+    size: tuple[Length, Length] = (15.0, 40.0)
     """Smallest and largest diameter."""
     colors: Annotated[tuple[Color, ...], Field(min_length=1)] = Field(
         default=("green", "cyan", "yellow", "white"), validate_default=True
     )
     """Colours to draw from, uniformly."""
-    gap: NonNegative = 25.0
+    gap: Distance = 25.0
     """Least clearance around each obstacle, so that agents can pass between them."""
 
 

@@ -21,15 +21,32 @@ MAX_ARENA_SIDE = 10_000.0
 """The longest side an arena may have, in world units (the largest shipped one is 800):
 it bounds every coordinate, and so the memory of the grids laid over the arena."""
 
+MIN_LENGTH = 0.1
+"""The shortest length of anything physical or seen, in world units (radii, widths,
+thicknesses, texture periods; the default agent has radius 10): pymunk needs shapes with a
+positive area and bodies with a positive moment, and rays resolve nothing finer."""
+MIN_MASS, MAX_MASS = 1e-3, 1e6
+"""The lightest and heaviest body (the default agent weighs 1), so that moments of inertia
+stay positive and the solver's mass ratios stay within what it handles."""
+MAX_SPEED = 100_000.0
+"""The fastest top speed of an agent, units per second (the default is 200)."""
+MAX_FRICTION = 100.0
+"""The largest friction coefficient (the defaults are 0.5)."""
+
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 Positive = Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(strict=True, ge=0, allow_inf_nan=False)]
-Length = Annotated[float, Field(strict=True, gt=0, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
-"""A positive length no longer than the longest arena side (thicknesses, widths)."""
+Length = Annotated[float, Field(strict=True, ge=MIN_LENGTH, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
+"""A length of something physical or seen (radii, widths, thicknesses, periods)."""
+Distance = Annotated[float, Field(strict=True, ge=0, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
+"""A distance that may be zero (offsets, gaps), no longer than the longest arena side."""
+Mass = Annotated[float, Field(strict=True, ge=MIN_MASS, le=MAX_MASS, allow_inf_nan=False)]
+Speed = Annotated[float, Field(strict=True, gt=0, le=MAX_SPEED, allow_inf_nan=False)]
+Friction = Annotated[float, Field(strict=True, ge=0, le=MAX_FRICTION, allow_inf_nan=False)]
 UnitInterval = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)]
 Flag = Annotated[bool, Field(strict=True)]
 Vec2 = tuple[Real, Real]
-Size2 = tuple[Positive, Positive]
+Size2 = tuple[Length, Length]
 Color = Annotated[
     tuple[float, float, float],
     BeforeValidator(parse_color),
@@ -90,7 +107,7 @@ class TextureSpec(Spec):
     each a random mix of the two colours drawn from ``seed``."""
     colors: tuple[Color, Color] = Field(default=("white", "black"), validate_default=True)
     """The two colours of the pattern."""
-    period: Positive = 10.0
+    period: Length = 10.0
     """Length in world units of one stripe pair, tile, checker square, gradient ramp or
     noise cell."""
     duty: UnitInterval = 0.5

@@ -1,0 +1,111 @@
+"""Every number that reaches pymunk or the ray kernel has a physically plausible range:
+the values that once aborted the process, stalled it or poisoned observations are refused
+with a located error, and worlds at the limits run with finite observations."""
+
+import numpy as np
+import pytest
+
+import flatland_ma
+from tests.scenario_helpers import problems, write
+
+TINY, SUBNORMAL, HUGE = 1e-300, 5e-324, 1e300
+
+ARM = {"segments": [{"length": 16}], "grasper": None}
+REFUSED = [
+    # (overrides, key path of the fault)
+    (
+        {"agent": {"arms": [{"segments": [{"length": TINY}]}]}},
+        ("agent", "arms", 0, "segments", 0, "length"),
+    ),
+    (
+        {"agent": {"arms": [{"segments": [{"width": TINY}]}]}},
+        ("agent", "arms", 0, "segments", 0, "width"),
+    ),
+    ({"agent": {"mass": TINY}}, ("agent", "mass")),
+    ({"agent": {"mass": SUBNORMAL}}, ("agent", "mass")),
+    ({"agent": {"mass": HUGE}}, ("agent", "mass")),
+    ({"agent": {"head": {"mass": TINY}}}, ("agent", "head", "mass")),
+    ({"agent": {"max_speed": HUGE}}, ("agent", "max_speed")),
+    (
+        {"doors": [{"start": [150, 0], "end": [150, 40], "kind": "hinged", "mass": HUGE}]},
+        ("doors", 0, "mass"),
+    ),
+    (
+        {
+            "obstacles": [
+                {
+                    "shape": "circle",
+                    "radius": 5,
+                    "position": [50, 50],
+                    "movable": True,
+                    "mass": SUBNORMAL,
+                }
+            ]
+        },
+        ("obstacles", 0, "mass"),
+    ),
+    (
+        {"obstacles": [{"shape": "circle", "radius": TINY, "position": [50, 50]}]},
+        ("obstacles", 0, "radius"),
+    ),
+    (
+        {"obstacles": [{"shape": "box", "size": [10, TINY], "position": [50, 50]}]},
+        ("obstacles", 0, "size", 1),
+    ),
+    (
+        {"obstacles": [{"shape": "circle", "radius": 5, "position": [50, 50], "friction": HUGE}]},
+        ("obstacles", 0, "friction"),
+    ),
+    ({"physics": {"dt": TINY}}, ("physics", "dt")),
+    ({"physics": {"dt": 100.0}}, ("physics", "dt")),
+    ({"arena": {"wall": {"thickness": TINY}}}, ("arena", "wall", "thickness")),
+    (
+        {"arena": {"wall": {"texture": {"kind": "checkers", "period": TINY}}}},
+        ("arena", "wall", "texture", "period"),
+    ),
+    (
+        {"arena": {"wall": {"texture": {"kind": "noise", "period": SUBNORMAL}}}},
+        ("arena", "wall", "texture", "period"),
+    ),
+    (
+        {"arena": {"wall": {"texture": {"kind": "gradient", "period": SUBNORMAL}}}},
+        ("arena", "wall", "texture", "period"),
+    ),
+    ({"agent": {"camera": {"range": TINY}}}, ("agent", "camera", "range")),
+    ({"items": [{"name": "dot", "color": "red", "radius": TINY}]}, ("items", 0, "radius")),
+]
+
+
+@pytest.mark.parametrize("overrides, path", REFUSED, ids=[str(p) for _, p in REFUSED])
+def test_implausible_numbers_get_a_located_error(tmp_path, overrides, path):
+    text = "extends: fruits_poisons\nobstacles: []\n"
+    found = problems(write(tmp_path, text), **overrides)
+    assert found[0].path == path and found[0].source == "<overrides>"
+    message = found[0].message
+    assert "greater than" in message or "less than" in message
+
+
+AT_THE_LIMITS = {
+    "physics": {"dt": 0.001},
+    "agent": {
+        "mass": 0.001,
+        "radius": 5.0,
+        "arms": [{"segments": [{"length": 0.1, "width": 0.1, "mass": 0.001}], "grasper": None}],
+        "head": {"radius": 0.1, "offset": 0.0, "mass": 0.001},
+    },
+    "arena": {"wall": {"texture": {"kind": "gradient", "period": 0.1}}},
+}
+
+
+def test_a_world_at_the_limits_runs_with_finite_observations():
+    env = flatland_ma.parallel_env("fruits_poisons", **AT_THE_LIMITS)
+    env.reset(seed=0)
+    space = env.action_space("agent_0")
+    space.seed(0)
+    for _ in range(200):
+        observations, rewards, *_ = env.step({"agent_0": space.sample()})
+        assert np.isfinite(observations["agent_0"]).all()
+        assert env.observation_space("agent_0").contains(observations["agent_0"])
+        assert np.isfinite(rewards["agent_0"])
+    for body in env.episode.world.space.bodies:
+        assert np.isfinite([*body.position, body.angle, *body.velocity]).all()
