@@ -2,6 +2,8 @@
 the values that once aborted the process, stalled it or poisoned observations are refused
 with a located error, and worlds at the limits run with finite observations."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -109,3 +111,36 @@ def test_a_world_at_the_limits_runs_with_finite_observations():
         assert np.isfinite(rewards["agent_0"])
     for body in env.episode.world.space.bodies:
         assert np.isfinite([*body.position, body.angle, *body.velocity]).all()
+
+
+STAR = [
+    [
+        round(10 * math.cos(math.pi / 2 + k * 4 * math.pi / 5), 6),
+        round(10 * math.sin(math.pi / 2 + k * 4 * math.pi / 5), 6),
+    ]
+    for k in range(5)
+]
+BAD_POLYGONS = [
+    (STAR, "winds 2 times around, not once"),
+    ([[0, 0], [10, 0], [0, 10]] * 2, "vertices 0 and 3 are at the same place"),
+    ([[0, 0], [10, 0], [5, 0.01]], "0.01 thick at its thinnest, less than 0.1"),
+    ([[0, 0], [10, 0], [10, 0], [0, 10]], "vertices 1 and 2 are at the same place"),
+]
+
+
+@pytest.mark.parametrize("vertices, message", BAD_POLYGONS)
+def test_stars_twice_wound_slivers_and_repeated_vertices_are_not_convex_polygons(
+    tmp_path, vertices, message
+):
+    obstacle = {"shape": "polygon", "position": [50, 50], "vertices": vertices}
+    (problem,) = problems(write(tmp_path, "obstacles: []\n"), obstacles=[obstacle])
+    assert problem.path == ("obstacles", 0) and message in problem.message
+
+
+def test_a_grid_rooms_opening_wider_than_its_wall_is_refused(tmp_path):
+    gen = {"generator": "grid_rooms", "rows": 3, "cols": 3, "door_width": 95, "thickness": 8}
+    (problem,) = problems(write(tmp_path, "obstacles: []\n"), layout={"generators": [gen]})
+    assert problem.path == ("layout", "generators", 0, "door_width")
+    assert "do not fit in walls 100 long" in problem.message
+    gen["door_width"] = 80  # 80 + 2 x 8 fits in 100
+    flatland_ma.parallel_env(write(tmp_path, "obstacles: []\n"), layout={"generators": [gen]})

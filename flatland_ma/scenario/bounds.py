@@ -28,6 +28,7 @@ def check_bounds(spec: ScenarioSpec) -> None:
     _check_openings(spec)
     _check_fit(spec)
     _check_mazes(spec)
+    _check_grid_rooms(spec)
     _check_fixed_items(spec)
 
 
@@ -154,6 +155,23 @@ def _check_mazes(spec: ScenarioSpec) -> None:
                 path,
                 f"maze cells of {gen.cell:g} leave passages {passage:.3g} wide between walls "
                 f"{thickness:g} thick: agents {2 * spec.agent.radius:g} across cannot pass",
+            )
+
+
+def _check_grid_rooms(spec: ScenarioSpec) -> None:
+    """The opening in each shared wall of a grid of rooms fits in the wall, with wall on
+    both sides of it."""
+    width, height = spec.arena.size
+    for index, gen in enumerate(spec.layout.generators):
+        if gen.generator != "grid_rooms":
+            continue
+        thickness = gen.thickness if gen.thickness is not None else spec.arena.wall.thickness
+        side = min(width / gen.cols, height / gen.rows)
+        if gen.door_width + 2 * thickness > side:
+            raise SpecError(
+                ("layout", "generators", index, "door_width"),
+                f"openings {gen.door_width:g} wide do not fit in walls {side:.3g} long between "
+                f"rooms (with {thickness:g} of wall on each side)",
             )
 
 

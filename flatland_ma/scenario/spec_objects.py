@@ -8,6 +8,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from flatland_ma.scenario.types import (
+    MIN_LENGTH,
     Color,
     Flag,
     Friction,
@@ -93,8 +94,9 @@ class PolygonObstacle(ObstacleBase):
 
     @model_validator(mode="after")
     def _convex(self):
-        if not is_convex(self.vertices):
-            raise ValueError("vertices must form a convex polygon with non-zero area")
+        problem = polygon_problem(self.vertices)
+        if problem is not None:
+            raise ValueError(f"vertices must form a convex polygon: {problem}")
         return self
 
     def local_vertices(self) -> list[tuple[float, float]]:
@@ -147,6 +149,39 @@ def polygon_area(pts) -> float:
     return 0.5 * sum(
         pts[i][0] * pts[(i + 1) % n][1] - pts[(i + 1) % n][0] * pts[i][1] for i in range(n)
     )
+
+
+def polygon_problem(pts) -> str | None:
+    """What keeps ``pts`` from being a simple convex polygon that pymunk and the rays
+    handle well, or None: no two vertices at the same place, every turn the same way and
+    once around in all (a star or a shape wound twice turns the same way too), and at
+    least ``MIN_LENGTH`` thick across."""
+    n = len(pts)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if math.dist(pts[i], pts[j]) < MIN_LENGTH:
+                return f"vertices {i} and {j} are at the same place"
+    if not is_convex(pts):
+        return "the vertices do not all turn the same way"
+    turning = 0.0
+    for i in range(n):
+        (ax, ay), (bx, by), (cx, cy) = pts[i], pts[(i + 1) % n], pts[(i + 2) % n]
+        turn = math.atan2(by - ay, bx - ax) - math.atan2(cy - by, cx - bx)
+        turning += (turn + math.pi) % (2 * math.pi) - math.pi
+    if abs(abs(turning) - 2 * math.pi) > 1e-6:
+        return f"the outline winds {abs(turning) / (2 * math.pi):.3g} times around, not once"
+    thickness = min(
+        max(_distance_to_line(p, pts[i], pts[(i + 1) % n]) for p in pts) for i in range(n)
+    )
+    if thickness < MIN_LENGTH:
+        return f"it is {thickness:.3g} thick at its thinnest, less than {MIN_LENGTH:g}"
+    return None
+
+
+def _distance_to_line(p, a, b) -> float:
+    """Distance from ``p`` to the line through ``a`` and ``b`` (distinct points)."""
+    (px, py), (ax, ay), (bx, by) = p, a, b
+    return abs((bx - ax) * (py - ay) - (by - ay) * (px - ax)) / math.hypot(bx - ax, by - ay)
 
 
 def is_convex(pts) -> bool:
