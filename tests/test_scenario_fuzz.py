@@ -31,7 +31,7 @@ FILES = {name: scenario_dir() / f"{name}.yaml" for name in NAMES}
 TEXTS = {name: path.read_bytes() for name, path in FILES.items()}
 DATA = {name: yaml.safe_load(text) for name, text in TEXTS.items()}
 FUZZ = settings(
-    max_examples=600,
+    max_examples=200,
     deadline=None,
     derandomize=True,
     database=None,
@@ -190,9 +190,24 @@ def load_and_run(path: Path) -> None:
         env.step({a: env.action_space(a).sample() for a in env.agents})
 
 
+THOROUGH_MUTATED, THOROUGH_MANGLED = 600, 400
+"""Examples of the slow runs (make test-slow); the default run tries a third of them."""
+
+
 @FUZZ
 @given(data=st.data())
 def test_mutated_scenario_data_fails_only_with_located_errors(data):
+    mutated_data_fails_only_with_located_errors(data)
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=THOROUGH_MUTATED)
+@given(data=st.data())
+def test_mutated_scenario_data_fails_only_with_located_errors_thoroughly(data):
+    mutated_data_fails_only_with_located_errors(data)
+
+
+def mutated_data_fails_only_with_located_errors(data):
     name = data.draw(st.sampled_from(NAMES))
     doc = copy.deepcopy(DATA[name])
     for _ in range(data.draw(st.integers(1, 3))):
@@ -203,9 +218,20 @@ def test_mutated_scenario_data_fails_only_with_located_errors(data):
         load_and_run(path)
 
 
-@settings(FUZZ, max_examples=400)
+@settings(FUZZ, max_examples=130)
 @given(data=st.data())
 def test_mangled_scenario_text_fails_only_with_located_errors(data):
+    mangled_text_fails_only_with_located_errors(data)
+
+
+@pytest.mark.slow
+@settings(FUZZ, max_examples=THOROUGH_MANGLED)
+@given(data=st.data())
+def test_mangled_scenario_text_fails_only_with_located_errors_thoroughly(data):
+    mangled_text_fails_only_with_located_errors(data)
+
+
+def mangled_text_fails_only_with_located_errors(data):
     text = TEXTS[data.draw(st.sampled_from(NAMES))]
     for _ in range(data.draw(st.integers(1, 3))):
         text = mangle(data, text)
