@@ -62,9 +62,6 @@ class Geometry:
         if self.bodies:  # one assignment: numpy's per-element writes cost more than the reads
             self.pose[:] = [(*body.position, body.angle) for body in self.bodies]
 
-    def update_visibility(self, entity: Entity) -> None:
-        self.looks.visible[entity.index] = entity.visible
-
     def update_entity(self, entity: Entity) -> None:
         """Repack a static entity after it moved or was shown or hidden."""
         self.looks.visible[entity.index] = entity.visible
