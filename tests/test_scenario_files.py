@@ -166,9 +166,9 @@ def test_the_validate_summary_counts_items_at_fixed_places(tmp_path, capsys):
 def test_random_obstacles_cut_off_no_team_from_its_spawn_area(monkeypatch):
     starts = []
 
-    def recording(gen, world, grid, start, rng, path):
+    def recording(gen, world, grid, start, *rest):
         starts.append((grid, start))
-        return scatter(gen, world, grid, start, rng, path)
+        return scatter(gen, world, grid, start, *rest)
 
     scatter = generators.scatter_obstacles
     monkeypatch.setattr(generators, "scatter_obstacles", recording)

@@ -278,7 +278,7 @@ def fault(tmp_path, text: str):
         (
             "layout: {generators: [{generator: maze, cell: 0.5}]}\n",
             "layout.generators[0].cell",
-            "too big",
+            "work budget",
         ),
         (
             "layout: {generators: [{generator: maze, cell: 25}]}\n",

@@ -32,7 +32,7 @@ from flatland_ma.tasks.rule import RULE_KINDS, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
 from flatland_ma.world.entities import Door, Entity
 from flatland_ma.world.navigation import NavGrid
-from flatland_ma.world.placement import PlacementError, Placer
+from flatland_ma.world.placement import PlacementError, Placer, ResetBudget
 from flatland_ma.world.world import World
 
 LAYOUT_TRIES = 20
@@ -83,18 +83,19 @@ def lay_ground(spec: ScenarioSpec, rng: np.random.Generator) -> Site:
     ``LAYOUT_TRIES`` times) while it cannot be used."""
     fixed = not spec.layout.per_episode or not spec.layout.generators
     layout_rng = np.random.default_rng(spec.layout.seed) if fixed else rng
+    budget = ResetBudget()  # shared by every attempt, and then by populate
     for attempt in range(1 if fixed else LAYOUT_TRIES):
         try:
-            return _site(spec, layout_rng)
+            return _site(spec, layout_rng, budget)
         except SpecError:
-            if fixed or attempt == LAYOUT_TRIES - 1:
+            if fixed or attempt == LAYOUT_TRIES - 1 or budget.spent:
                 raise
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-def _site(spec: ScenarioSpec, rng: np.random.Generator) -> Site:
+def _site(spec: ScenarioSpec, rng: np.random.Generator, budget: ResetBudget) -> Site:
     """The walls, doors and obstacles of one layout, and where agents fit and can go."""
-    ground = Ground(spec)
+    ground = Ground(spec, budget)
     ground.add(explicit_layout(spec))
     for index, gen in enumerate(spec.layout.generators):
         generator_for(gen, spec, index).generate(ground, rng)
@@ -103,8 +104,8 @@ def _site(spec: ScenarioSpec, rng: np.random.Generator) -> Site:
         if not (grid.cells_in(group.spawn.area) & ~grid.blocked).any():
             where = group.area_path or ("arena", "size")
             raise SpecError(where, "no free place where agents could start")
-    region = reachable_region(spec, grid, ground.doors, start)
-    return Site(world, ground.doors, grid, Placer(world, grid, region))
+    region = reachable_region(spec, grid, ground.doors, start, budget)
+    return Site(world, ground.doors, grid, Placer(world, grid, region, budget))
 
 
 def populate(
@@ -129,6 +130,7 @@ def populate(
             world.add(make_item(item, groups[g], x, y))
     for zone in spec.zones:
         world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
+    placer.budget = None  # the reset is done; respawns are bounded one by one
 
     eyes: list[Entity] = [
         b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own

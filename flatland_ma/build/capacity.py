@@ -69,25 +69,59 @@ def spawn_group_of(spec, groups: list[SpawnGroup], agent: int) -> SpawnGroup:
 
 @dataclass(frozen=True)
 class _Draw:
-    """Discs drawn at random over some cells."""
+    """Discs drawn at random over the free cells of an area."""
 
     what: str
     n: int
     radius: float
     area: tuple | None
-    cells: np.ndarray
     area_path: KeyPath | None
     count_path: KeyPath
     radius_path: KeyPath
 
 
+class _FreeCells:
+    """How many cells of the placer's (free, reachable) ones lie in any rectangle, in
+    constant time: a summed-area table, so that many groups over a large arena cost
+    no more than one grid's worth of work."""
+
+    def __init__(self, placer: Placer):
+        grid = placer.grid
+        self.table = np.zeros((grid.ny + 1, grid.nx + 1), np.int32)
+        self.table[1:, 1:] = placer.mask(None).cumsum(0, dtype=np.int32).cumsum(1)
+        self.xs = (np.arange(grid.nx) + 0.5) * grid.cell
+        self.ys = (np.arange(grid.ny) + 0.5) * grid.cell
+
+    def count(self, rect: tuple) -> int:
+        """Cells whose centre lies in ``rect`` (edges included, as ``NavGrid.cells_in``)."""
+        x0, y0, x1, y1 = rect
+        j0, j1 = np.searchsorted(self.xs, x0, "left"), np.searchsorted(self.xs, x1, "right")
+        i0, i1 = np.searchsorted(self.ys, y0, "left"), np.searchsorted(self.ys, y1, "right")
+        if i1 <= i0 or j1 <= j0:
+            return 0
+        t = self.table
+        return int(t[i1, j1] - t[i0, j1] - t[i1, j0] + t[i0, j0])
+
+
+_EVERYWHERE = (-math.inf, -math.inf, math.inf, math.inf)
+
+
+def _overlap(a: tuple, b: tuple) -> tuple:
+    return (max(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), min(a[3], b[3]))
+
+
 def check_capacity(spec, placer: Placer) -> None:
     """Raise ``SpecError`` where things placed at random would crowd their floor."""
-    draws = [d for d in _draws(spec, placer) if d.n > 0 and d.cells.any()]
+    free_cells = _FreeCells(placer)
+    rects = {}
+    for d in _draws(spec):
+        rects[d] = tuple(d.area) if d.area is not None else _EVERYWHERE
+    sizes = {d: free_cells.count(r) for d, r in rects.items()}
+    # No place at all is reported when placed.
+    draws = [d for d in rects if d.n > 0 and sizes[d] > 0]
     cell_area = placer.grid.cell**2
-    sizes = [int(d.cells.sum()) for d in draws]  # no place at all: reported when placed
-    for d, size in zip(draws, sizes):
-        free = size * cell_area
+    for d in draws:
+        free = sizes[d] * cell_area
         one = math.pi * (d.radius + 0.5) ** 2
         if one > MAX_COVER * free:
             raise SpecError(
@@ -96,11 +130,15 @@ def check_capacity(spec, placer: Placer) -> None:
                 f"{one / free:.0%} of the free floor{_where(d)}; at most {MAX_COVER:.0%} "
                 "leaves room to place things at random",
             )
-    for d, size in zip(draws, sizes):
-        free = size * cell_area
+    for d in draws:
+        free = sizes[d] * cell_area
         shares = [
-            e.n * math.pi * (e.radius + 0.5) ** 2 * int((e.cells & d.cells).sum()) / other
-            for e, other in zip(draws, sizes)
+            e.n
+            * math.pi
+            * (e.radius + 0.5) ** 2
+            * free_cells.count(_overlap(rects[e], rects[d]))
+            / sizes[e]
+            for e in draws
         ]
         cover = sum(shares)
         if cover > MAX_COVER * free:
@@ -118,7 +156,7 @@ def _where(draw) -> str:
     return f" in {format_path(draw.area_path)}" if draw.area_path else ""
 
 
-def _draws(spec, placer: Placer) -> list[_Draw]:
+def _draws(spec) -> list[_Draw]:
     reach = footprint(spec.agent, make_parts(spec.agent))
     draws = [
         _Draw(
@@ -126,7 +164,6 @@ def _draws(spec, placer: Placer) -> list[_Draw]:
             group.size,
             reach,
             group.spawn.area,
-            placer.mask(group.spawn.area),
             group.area_path,
             group.count_path,
             ("agent", "radius"),
@@ -142,7 +179,6 @@ def _draws(spec, placer: Placer) -> list[_Draw]:
                     item.count,
                     item.radius,
                     item.spawn,
-                    placer.mask(item.spawn),
                     area_path,
                     ("items", g, "count"),
                     ("items", g, "radius"),

@@ -17,7 +17,10 @@ from flatland_ma.build.ground import Ground
 from flatland_ma.build.layout import DoorPiece, Layout, axis_piece, axis_point, merge, style
 from flatland_ma.build.scatter import scatter_obstacles
 from flatland_ma.registry import Kinded, Kinds
+from flatland_ma.scenario.budget import maze_size
+from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import DoorSpec, ScenarioSpec
+from flatland_ma.world.placement import OutOfBudget
 
 GENERATOR_KINDS = Kinds("flatland_ma.build", "generator")
 """Every generator class, by the ``generator`` name files give it."""
@@ -86,7 +89,7 @@ class Maze(Generator, kind="maze"):
     def generate(self, ground: Ground, rng: np.random.Generator) -> None:
         gen, spec = self.spec, self.scenario
         width, height = spec.arena.size
-        cols, rows = max(1, round(width / gen.cell)), max(1, round(height / gen.cell))
+        cols, rows = maze_size(spec, gen.cell)
         open_east, open_north = _spanning_tree(rows, cols, rng)
         if gen.loops > 0:
             for grid, limit in ((open_east, (rows, cols - 1)), (open_north, (rows - 1, cols))):
@@ -148,5 +151,11 @@ class RandomObstacles(Generator, kind="random_obstacles"):
     where agents start (see ``scatter.py``)."""
 
     def generate(self, ground: Ground, rng: np.random.Generator) -> None:
-        world, grid = ground.world, ground.grid
-        ground.grid = scatter_obstacles(self.spec, world, grid, ground.start, rng, self.path)
+        try:
+            reach = ground.reach
+        except OutOfBudget as err:
+            raise SpecError(self.path, f"could not scatter obstacles: {err}") from None
+        grid, reach = scatter_obstacles(
+            self.spec, ground.world, ground.grid, ground.start, reach, rng, self.path, ground.budget
+        )
+        ground.update(grid, reach)

@@ -20,12 +20,15 @@ from flatland_ma.scenario.errors import SpecError, format_path
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.world.entities import Door, Entity, Obstacle
 from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.placement import ResetBudget
 from flatland_ma.world.world import World
 
 
 class Ground:
-    def __init__(self, spec: ScenarioSpec):
+    def __init__(self, spec: ScenarioSpec, budget: ResetBudget | None = None):
         self.spec = spec
+        self.budget = budget if budget is not None else ResetBudget()
+        """The work the reset may still spend placing things (generators spend it too)."""
         self.walls: list[WallPiece] = []
         self.door_pieces: list[DoorPiece] = []
         self.doors: list[Door] = []
@@ -33,6 +36,7 @@ class Ground:
         """Each solid shape's key path in the scenario, for messages about overlaps."""
         self._world: World | None = None
         self._grid: NavGrid | None = None
+        self._reach: np.ndarray | None = None
         self._start: np.ndarray | None = None
 
     def add(self, layout: Layout) -> None:
@@ -62,9 +66,18 @@ class Ground:
             self._materialise()
         return self._grid  # type: ignore[return-value]
 
-    @grid.setter
-    def grid(self, grid: NavGrid) -> None:
-        self._grid = grid
+    @property
+    def reach(self) -> np.ndarray:
+        """The free cells of the grid connected to where agents start: searched once (at a
+        cost to the budget), then kept up to date by whoever blocks cells (``update``)."""
+        if self._reach is None:
+            self.budget.searched(self.grid.blocked.size)
+            self._reach = self.grid.reachable(self.start)
+        return self._reach
+
+    def update(self, grid: NavGrid, reach: np.ndarray) -> None:
+        """Take a grid with more cells blocked, and what is reachable on it."""
+        self._grid, self._reach = grid, reach
 
     def _materialise(self) -> None:
         spec = self.spec
@@ -100,9 +113,12 @@ class Ground:
         if check:
             _check_clear(self.world, entity, paths[0], self.owners, solid_only=walls_ok)
         self.world.add(entity)
-        for shape, path in zip(entity.shapes, paths * len(entity.shapes)):
+        if len(paths) == 1:
+            paths = paths * len(entity.shapes)
+        for shape, path in zip(entity.shapes, paths):
             self.owners[shape] = path
         if self._grid is not None and entity.blocks_paths:
+            self._reach = None
             for shape in entity.shapes:
                 self._grid.block_shape(shape)
 

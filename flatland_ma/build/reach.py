@@ -20,6 +20,7 @@ import numpy as np
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
 from flatland_ma.world.entities import Door
 from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.placement import OutOfBudget, ResetBudget
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,25 +43,41 @@ class Gate:
     openers: tuple[Opener, ...]
 
 
-def reachable_region(spec, grid: NavGrid, doors: list[Door], start: np.ndarray) -> np.ndarray:
+def reachable_region(
+    spec, grid: NavGrid, doors: list[Door], start: np.ndarray, budget: ResetBudget
+) -> np.ndarray:
     """The cells agents starting in ``start`` can reach, opening gates as they go; raise
     ``SpecError`` at an opener that could be drawn behind its own gate, or at an item or a
-    zone agents cannot reach."""
+    zone agents cannot reach. Each search of the grid is paid from ``budget``."""
     gates = [g for g in (_gate(spec, grid, d) for d in doors) if g is not None]
-    region, opened = _flood(grid, start, gates)
-    drawn = {o.path: o for g, is_open in zip(gates, opened) if is_open for o in g.openers}
-    for opener in drawn.values():
-        if opener.area is not None:
-            _check_drawn_opener(grid, start, gates, region, opener)
-    closed = [format_path(g.door.path) for g, is_open in zip(gates, opened) if not is_open]
-    _check_targets(spec, grid, region, grid.reachable(start) if closed else region, closed)
+    try:
+        region, opened = _flood(grid, start, gates, budget)
+        drawn = {o.path: o for g, is_open in zip(gates, opened) if is_open for o in g.openers}
+        for opener in drawn.values():
+            if opener.area is not None:
+                _check_drawn_opener(grid, start, gates, region, opener, budget)
+        closed = [format_path(g.door.path) for g, is_open in zip(gates, opened) if not is_open]
+        if closed:
+            budget.searched(grid.blocked.size)
+        all_open = grid.reachable(start) if closed else region
+    except OutOfBudget as err:
+        path = gates[0].door.path if gates else ("arena", "size")
+        raise SpecError(path, f"could not check what agents can reach: {err}") from None
+    _check_targets(spec, grid, region, all_open, closed)
     return region
 
 
-def _flood(grid: NavGrid, start, gates: list[Gate], without: KeyPath | None = None):
+def _flood(
+    grid: NavGrid,
+    start,
+    gates: list[Gate],
+    budget: ResetBudget,
+    without: KeyPath | None = None,
+):
     """The fixed point: the region reached and which gates opened (``without`` one opener)."""
     opened = [False] * len(gates)
     while True:
+        budget.searched(grid.blocked.size)
         blocked = grid.blocked.copy()
         for gate, is_open in zip(gates, opened):
             if not is_open:
@@ -78,9 +95,9 @@ def _flood(grid: NavGrid, start, gates: list[Gate], without: KeyPath | None = No
             return region, opened
 
 
-def _check_drawn_opener(grid, start, gates, region, opener: Opener) -> None:
+def _check_drawn_opener(grid, start, gates, region, opener: Opener, budget) -> None:
     places = opener.cells & region
-    without, _ = _flood(grid, start, gates, without=opener.path)
+    without, _ = _flood(grid, start, gates, budget, without=opener.path)
     if (places & ~without).any():
         opens = [
             format_path(g.door.path) for g in gates if any(o.path == opener.path for o in g.openers)

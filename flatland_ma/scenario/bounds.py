@@ -11,14 +11,12 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from flatland_ma.scenario.budget import maze_size
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
 
 if TYPE_CHECKING:  # the schema imports these checks
     from flatland_ma.scenario.schema import ScenarioSpec
     from flatland_ma.scenario.spec_objects import Obstacle
-
-MAX_MAZE_CELLS = 10_000
-"""The most cells a maze may have (the largest shipped maze has 256)."""
 
 
 def check_bounds(spec: ScenarioSpec) -> None:
@@ -139,13 +137,7 @@ def _check_mazes(spec: ScenarioSpec) -> None:
         if gen.generator != "maze":
             continue
         path = ("layout", "generators", index, "cell")
-        cols, rows = max(1, round(width / gen.cell)), max(1, round(height / gen.cell))
-        if cols * rows > MAX_MAZE_CELLS:
-            raise SpecError(
-                path,
-                f"a maze of {cols} x {rows} cells is too big (at most {MAX_MAZE_CELLS:,} "
-                "cells); use larger cells",
-            )
+        cols, rows = maze_size(spec, gen.cell)  # at most MAX_GENERATOR_CELLS (budget)
         if cols * rows == 1:
             continue  # no inner walls
         thickness = gen.thickness if gen.thickness is not None else spec.arena.wall.thickness

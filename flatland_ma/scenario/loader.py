@@ -14,7 +14,6 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from pydantic import ValidationError
 
 from flatland_ma.scenario.errors import (
@@ -26,6 +25,7 @@ from flatland_ma.scenario.errors import (
     locate,
 )
 from flatland_ma.scenario.messages import problems_from
+from flatland_ma.scenario.overrides import OVERRIDES, plain_overrides
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
@@ -35,7 +35,6 @@ top-level ``scenarios/`` folder onto it."""
 SCHEMA_FILE = "scenario.schema.json"
 """The JSON schema of scenario files (for editors), shipped beside the scenarios."""
 SCENARIO_SUFFIXES = (".yaml", ".yml")
-OVERRIDES = "<overrides>"
 _MAX_EXTENDS = 8
 
 
@@ -99,9 +98,10 @@ def load_scenario(name: str | Path = "fruits_poisons", **overrides: Any) -> Scen
 
 def _load(name: str | Path, overrides: dict, source: str) -> ScenarioSpec:
     check_keywords(overrides, source)
+    plain = plain_overrides(overrides)
     raw, marks = read_raw(name)
-    if overrides:
-        raw = merge(raw, overrides, marks, (), OVERRIDES)
+    if plain:
+        raw = merge(raw, plain, marks, (), OVERRIDES)
     spec = validate(raw, marks, fallback=source)
     spec._origin = (source, marks)
     return spec
@@ -177,7 +177,7 @@ def merge(base: dict, top: Mapping, marks: Marks, prefix: KeyPath, top_marks) ->
         for stale in [p for p in marks if p[: len(path)] == path]:
             del marks[stale]
         _mark(marks, path, top_marks, subtree=True)
-        result[key] = _plain(value)
+        result[key] = value
     return result
 
 
@@ -188,18 +188,6 @@ def _mark(marks: Marks, path: KeyPath, top_marks, subtree: bool) -> None:
     for p, where in top_marks.items():
         if p == path or (subtree and p[: len(path)] == path):
             marks[p] = where
-
-
-def _plain(value):
-    """Copy override values into the plain dict/list form a file would give (numpy
-    numbers and arrays become Python numbers and lists)."""
-    if isinstance(value, Mapping):
-        return {k: _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, (np.generic, np.ndarray)):
-        return _plain(value.tolist())
-    return value
 
 
 def validate(raw: dict, marks: Marks, fallback: str) -> ScenarioSpec:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from flatland_ma.scenario import budget
 from flatland_ma.scenario.colors import NAMED_COLORS_255
 from flatland_ma.scenario.json_schema import VALUE_TYPES, file_schema, schema_text
 
@@ -54,12 +55,21 @@ files.
   that the agents' top speed cannot carry them through; and room to spare for what is
   placed at random (the scenario is built with several seeds, and discs placed at random
   may cover at most 30% of the free floor they are drawn on).
-- **Limits**: arena sides, wall thicknesses and widths are at most 10,000; a maze has at
-  most 10,000 cells; a file may nest 32 levels deep and expand (through aliases) to at
-  most 100,000 values. Numbers that reach the physics or the rays are physically
-  plausible: lengths (radii, widths, thicknesses, texture periods) at least 0.1, masses
-  from 0.001 to 1,000,000, a time step from 0.001 to 1 second, top speeds up to 100,000,
-  friction up to 100 (each field's table gives its range).
+- **Limits**: arena sides, wall thicknesses and widths are at most 10,000; a file may nest
+  32 levels deep and expand (through aliases) to at most 100,000 values. Numbers that
+  reach the physics or the rays are physically plausible: lengths (radii, widths,
+  thicknesses, texture periods) at least 0.1, masses from 0.001 to 1,000,000, a time step
+  from 0.001 to 1 second, top speeds up to 100,000, friction up to 100 (each field's
+  table gives its range).
+- **Work budget**: what a file asks to be built, after `extends` and overrides, is
+  counted before anything is built: at most MAX_SHAPES solid shapes (walls, doors,
+  obstacles, agents' parts; a gap splits a wall in two), MAX_SCATTERED obstacles
+  scattered at random, MAX_ITEMS items, MAX_GENERATOR_CELLS maze and room-grid cells,
+  MAX_KEYS locked doors and keys (key item groups, key objects, switch zones), and
+  MAX_GROUPS each of item groups, zones, teams, rules and generators. A reset may also
+  draw only so many places, and search only so many grid cells to check what agents can
+  reach. A file over a limit gets an error naming it, at the entry that adds the most;
+  within them any file loads and resets in seconds.
 - **Editor completion**: `scenario.schema.json`, shipped beside the scenarios, is the JSON
   schema of this format, written from the same models as this page (`python -c "import
   flatland_ma.scenario.loader as s; print(s.schema_path())"` prints where it is installed).
@@ -209,7 +219,11 @@ def _shared_keys(members: list[dict[str, Any]], tag_key: str) -> list[str]:
 def render() -> str:
     """``docs/scenarios.md``."""
     names = ", ".join(sorted(NAMED_COLORS_255))
-    parts = [INTRO.replace("COLOR_NAMES", names)]
+    intro = INTRO.replace("COLOR_NAMES", names)
+    limits = ("MAX_SHAPES", "MAX_SCATTERED", "MAX_ITEMS", "MAX_GENERATOR_CELLS", "MAX_KEYS")
+    for name in (*limits, "MAX_GROUPS"):
+        intro = intro.replace(name, f"{getattr(budget, name):,}")
+    parts = [intro]
     parts += [_table(section) for section in sections(file_schema())]
     return "\n".join(parts)
 

@@ -14,6 +14,7 @@ from typing import Annotated
 from pydantic import Field, PrivateAttr, model_validator
 
 from flatland_ma.scenario.bounds import check_bounds
+from flatland_ma.scenario.budget import MAX_GROUPS, check_budget
 from flatland_ma.scenario.checks import RESERVED_NAMES, check_names, check_teams
 from flatland_ma.scenario.errors import KeyPath, ScenarioError, SpecError, located
 from flatland_ma.scenario.spec_agent import (
@@ -131,19 +132,19 @@ class ScenarioSpec(Spec):
     """Passages between walls; they open the room walls they run through."""
     doors: tuple[DoorSpec, ...] = ()
     """Doors on their own (doors in room openings are given there)."""
-    zones: tuple[ZoneSpec, ...] = ()
+    zones: Annotated[tuple[ZoneSpec, ...], Field(max_length=MAX_GROUPS)] = ()
     """Areas of floor that act when agents enter them."""
     layout: LayoutSpec = LayoutSpec()
     """Generated walls and obstacles, drawn per episode or once."""
     obstacles: tuple[Obstacle, ...] = ()
     """Obstacles at fixed places: circles, boxes, convex polygons."""
-    items: tuple[ItemSpec, ...] = ()
+    items: Annotated[tuple[ItemSpec, ...], Field(max_length=MAX_GROUPS)] = ()
     """Groups of items that agents take by touching them."""
     agent: AgentSpec = AgentSpec()
     """What every agent is: body, motor, camera, actions, start."""
-    teams: tuple[TeamSpec, ...] = ()
+    teams: Annotated[tuple[TeamSpec, ...], Field(max_length=MAX_GROUPS)] = ()
     """Teams of agents, in agent order; their sizes add up to ``n_agents``."""
-    rules: tuple[RuleSpec, ...] = ()
+    rules: Annotated[tuple[RuleSpec, ...], Field(max_length=MAX_GROUPS)] = ()
     """Rules added to the task, applied in order after what items, zones, doors and
     deliveries do, and before the episode's ending is decided."""
     reference: ReferenceSpec | None = None
@@ -155,6 +156,7 @@ class ScenarioSpec(Spec):
 
     @model_validator(mode="after")
     def _cross_checks(self):
+        check_budget(self)  # first: the other checks then run over bounded totals
         check_bounds(self)
         check_names(self)
         check_teams(self)

@@ -6,6 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
+from flatland_ma.scenario.budget import MAX_GROUPS
 from flatland_ma.scenario.types import (
     Color,
     Distance,
@@ -286,7 +287,7 @@ Generator = Annotated[
 
 
 class LayoutSpec(Spec):
-    generators: tuple[Generator, ...] = ()
+    generators: Annotated[tuple[Generator, ...], Field(max_length=MAX_GROUPS)] = ()
     """Applied in order over the explicit walls, rooms and obstacles."""
     per_episode: Flag = True
     """True: a new layout at every reset, drawn from the env's generator. False: one layout

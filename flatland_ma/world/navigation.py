@@ -71,7 +71,7 @@ def _block_circle(blocked, cx, cy, radius, clearance, cell, x0, y0):
 
 
 @nb.njit(cache=True)
-def _bfs(blocked, starts):
+def grid_steps(blocked, starts):
     """Steps (8-connected, no corner cutting) from the nearest start cell; UNREACHED if none."""
     ny, nx = blocked.shape
     dist = np.full((ny, nx), UNREACHED, np.int32)
@@ -137,19 +137,37 @@ class NavGrid:
         self._rasterise(mask, shape, extra)
         return mask
 
-    def _rasterise(self, mask: np.ndarray, shape: pymunk.Shape, extra: float) -> None:
+    def window(self, shape: pymunk.Shape, pad: int) -> tuple[tuple[slice, slice], np.ndarray]:
+        """The cells ``shape`` keeps agents' centres out of, within a window of the grid
+        around it (``pad`` cells wider on every side): ``(window, mask)``, the window as
+        an index into the grid and the mask of its cells. Costs the window's area only."""
+        shape.cache_bb()
+        bb, reach = shape.bb, self.clearance
+        i0 = max(0, int((bb.bottom - reach) / self.cell) - pad)
+        j0 = max(0, int((bb.left - reach) / self.cell) - pad)
+        i1 = min(self.ny, int((bb.top + reach) / self.cell) + pad + 2)
+        j1 = min(self.nx, int((bb.right + reach) / self.cell) + pad + 2)
+        mask = np.zeros((max(0, i1 - i0), max(0, j1 - j0)), np.bool_)
+        self._rasterise(mask, shape, 0.0, (j0 * self.cell, i0 * self.cell))
+        return (slice(i0, i1), slice(j0, j1)), mask
+
+    def _rasterise(
+        self, mask: np.ndarray, shape: pymunk.Shape, extra: float, origin=(0.0, 0.0)
+    ) -> None:
+        """Mark the cells of ``mask`` (whose cell (0, 0) has its corner at ``origin``)."""
         body = shape.body
         assert body is not None, "a shape on no body"
         at_origin = body.position == (0, 0) and body.angle == 0
+        x0, y0 = float(origin[0]), float(origin[1])
         if isinstance(shape, pymunk.Circle):
             cx, cy = body.local_to_world(shape.offset)
-            _block_circle(mask, cx, cy, shape.radius, self.clearance + extra, self.cell, 0.0, 0.0)
+            _block_circle(mask, cx, cy, shape.radius, self.clearance + extra, self.cell, x0, y0)
         elif isinstance(shape, pymunk.Poly):
             verts = shape.get_vertices()
             if not at_origin:
                 verts = [body.local_to_world(v) for v in verts]
             verts = np.array([tuple(v) for v in verts])
-            _block_polygon(mask, verts, self.clearance + extra, self.cell, 0.0, 0.0)
+            _block_polygon(mask, verts, self.clearance + extra, self.cell, x0, y0)
         else:  # pragma: no cover - the builder makes only circles and polygons
             raise TypeError(f"cannot rasterise {type(shape).__name__}")
 
@@ -177,7 +195,7 @@ class NavGrid:
     def distances(self, start_mask: np.ndarray) -> np.ndarray:
         """BFS steps from the free cells of ``start_mask`` to every cell."""
         starts = np.argwhere(start_mask & ~self.blocked).astype(np.int64).reshape(-1, 2)
-        return _bfs(self.blocked, starts)
+        return grid_steps(self.blocked, starts)
 
     def reachable(self, start_mask: np.ndarray) -> np.ndarray:
         return self.distances(start_mask) != UNREACHED
