@@ -49,6 +49,7 @@ def test_a_small_soak_reports_both_phases_and_finds_no_bad_observation():
     for key in ("steps_per_s_first", "steps_per_s_last", "steps_per_s_mean"):
         assert steps[key] > 0 and math.isfinite(steps[key])
     assert made["creations"] == 10 and made["warmup_creations"] == 2
+    assert [w["creations"] for w in made["windows"]] == [2, 10]
     assert made["rss_warm"] > 0 and made["rss_end"] > 0
     assert observations["bad"] == 0 and observations["examples"] == []
     # every agent's observation of every step and reset: 4 x (1,000 + 2) in the first
