@@ -9,9 +9,10 @@ agents of each env step. Every observation is checked: a vectorised bounds test 
 agents' observations each step (it fails on NaN and infinities too), and the space's own
 ``contains`` every ``contains_every`` env steps and on every reset (about 20 us an agent,
 as much as the whole step, so not on every one). The resident set size and the rate are
-sampled every ``window`` agent-steps. The first ``warmup`` share of the steps is warm-up
-(allocator arenas, caches and free lists filling up); growth is the change of RSS from the
-end of warm-up to the end of the run.
+sampled every ``window`` agent-steps, the rate both per second and per CPU second of the
+process (which other work on the machine does not lower). The first ``warmup`` share of
+the steps is warm-up (allocator arenas, caches and free lists filling up); growth is the
+change of RSS from the end of warm-up to the end of the run.
 
 Phase 2 creates, resets, steps a few times and closes ``creations`` envs, sampling RSS
 every ``creation_window`` creations; growth is the change of RSS from the end of the first
@@ -162,11 +163,12 @@ def step_phase(
 
     gc.collect()
     rss_start = rss_bytes(source)
-    samples = []  # (agent-steps so far, rss, agent-steps/s over the window)
+    samples = []  # (agent-steps so far, rss, agent-steps/s over the window, per CPU second)
     done = env_steps = 0
     stepping = 0.0  # seconds in the loop, less the sampling (a full collection each)
     window_done, next_sample = 0, window
     started = window_start = time.perf_counter()
+    cpu_start = time.process_time()
     while done < agent_steps:
         if not env.agents:
             episode += 1
@@ -181,10 +183,11 @@ def step_phase(
             spent = time.perf_counter() - window_start
             stepping += spent
             rate = (done - window_done) / spent
+            cpu_rate = (done - window_done) / max(time.process_time() - cpu_start, 1e-9)
             gc.collect()
-            samples.append((done, rss_bytes(source), rate))
+            samples.append((done, rss_bytes(source), rate, cpu_rate))
             window_done, next_sample = done, next_sample + window
-            window_start = time.perf_counter()
+            window_start, cpu_start = time.perf_counter(), time.process_time()
     elapsed = time.perf_counter() - started
     env.close()
 
@@ -207,7 +210,12 @@ def step_phase(
         "steps_per_s_warm": warm[2],
         "steps_per_s_last": samples[-1][2],
         "steps_per_s_mean": done / stepping,
-        "windows": [{"agent_steps": s[0], "rss": s[1], "steps_per_s": s[2]} for s in samples],
+        "steps_per_cpu_s_first": samples[0][3],
+        "steps_per_cpu_s_last": samples[-1][3],
+        "windows": [
+            {"agent_steps": s[0], "rss": s[1], "steps_per_s": s[2], "steps_per_cpu_s": s[3]}
+            for s in samples
+        ],
     }
     return report, check
 
@@ -327,6 +335,9 @@ def format_report(report: dict, max_growth: float = MAX_GROWTH) -> str:
         f"  agent-steps/s: {s['steps_per_s_first']:,.0f} first window, "
         f"{s['steps_per_s_warm']:,.0f} at warm-up end, {s['steps_per_s_last']:,.0f} last window, "
         f"{s['steps_per_s_mean']:,.0f} overall",
+        f"  agent-steps per CPU second (the process's own time, whatever else runs): "
+        f"{s['steps_per_cpu_s_first']:,.0f} first window, "
+        f"{s['steps_per_cpu_s_last']:,.0f} last window",
         f"creations: {c['creations']} x (create, reset, {c['steps_each']} steps, close) "
         f"in {c['seconds']:.1f} s ({c['creations_per_s']:.1f}/s)",
         f"  {rss}: {mib(c['rss_start'])} before, {mib(c['rss_warm'])} after "

@@ -46,7 +46,13 @@ def test_a_small_soak_reports_both_phases_and_finds_no_bad_observation():
     assert [w["agent_steps"] for w in steps["windows"]] == [1_000, 2_000, 3_000, 4_000]
     for key in ("rss_start", "rss_warm", "rss_end", "rss_max_after_warmup"):
         assert steps[key] > 0
-    for key in ("steps_per_s_first", "steps_per_s_last", "steps_per_s_mean"):
+    for key in (
+        "steps_per_s_first",
+        "steps_per_s_last",
+        "steps_per_s_mean",
+        "steps_per_cpu_s_first",
+        "steps_per_cpu_s_last",
+    ):
         assert steps[key] > 0 and math.isfinite(steps[key])
     assert made["creations"] == 10 and made["warmup_creations"] == 2
     assert [w["creations"] for w in made["windows"]] == [2, 10]
