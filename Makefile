@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow bench docs reference lint clean reproduce reproduce-multi results
+.PHONY: demo test test-slow soak bench docs reference lint clean reproduce reproduce-multi results
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -25,6 +25,11 @@ test: $(STAMP)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -n auto -m slow
+
+# A million agent-steps of fruits_poisons_multi and 500 env creations in one process: RSS
+# and agent-steps/s at start and end, growth after warm-up (tests/soak.py; fails at 5%).
+soak: $(STAMP)
+	$(BIN)/python -m tests.soak
 
 bench: $(STAMP)
 	$(BIN)/flatland-ma bench
