@@ -75,6 +75,14 @@ REFUSED = [
     ),
     ({"agent": {"camera": {"range": TINY}}}, ("agent", "camera", "range")),
     ({"items": [{"name": "dot", "color": "red", "radius": TINY}]}, ("items", 0, "radius")),
+    ({"walls": [{"start": [150, 10], "end": [150, 10 + 1e-10]}]}, ("walls", 0)),
+    (
+        {"doors": [{"start": [150, 0], "end": [150, TINY], "kind": "hinged"}]},
+        ("doors", 0),
+    ),
+    ({"corridors": [{"start": [100, 100], "end": [100, 100 + 1e-7]}]}, ("corridors", 0)),
+    ({"rooms": [{"rect": [100, 100, 100 + 1e-5, 200]}]}, ("rooms", 0, "rect")),
+    ({"zones": [{"rect": [100, 100, 200, 100.01]}]}, ("zones", 0, "rect")),
 ]
 
 
@@ -84,7 +92,7 @@ def test_implausible_numbers_get_a_located_error(tmp_path, overrides, path):
     found = problems(write(tmp_path, text), **overrides)
     assert found[0].path == path and found[0].source == "<overrides>"
     message = found[0].message
-    assert "greater than" in message or "less than" in message
+    assert "greater than" in message or "less than" in message or "at least" in message
 
 
 AT_THE_LIMITS = {

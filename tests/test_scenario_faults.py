@@ -164,7 +164,7 @@ SWITCH_DOOR = KEY_DOOR.replace("state: locked, key: key", "switch: plate")
             ("corridors", 0),
             "horizontally or vertically",
         ),
-        ("walls:\n  - {start: [10, 10], end: [10, 10]}\n", 2, ("walls", 0), "distinct"),
+        ("walls:\n  - {start: [10, 10], end: [10, 10]}\n", 2, ("walls", 0), "0.1 apart"),
         (
             "walls:\n  - {start: [100, 10], end: [100, 200], thickness: 0.5}\nagent:\n  max_speed: 800\n",
             2,

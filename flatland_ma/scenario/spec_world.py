@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
 from flatland_ma.scenario.budget import MAX_GROUPS
 from flatland_ma.scenario.types import (
+    MIN_LENGTH,
     Color,
     Distance,
     Flag,
@@ -63,8 +65,8 @@ class WallSpec(Spec):
 
     @model_validator(mode="after")
     def _has_length(self):
-        if self.start == self.end:
-            raise ValueError("a wall needs distinct start and end points")
+        if math.dist(self.start, self.end) < MIN_LENGTH:
+            raise ValueError(f"a wall's start and end must be at least {MIN_LENGTH:g} apart")
         return self
 
 
@@ -112,8 +114,10 @@ class DoorSpec(Spec):
             raise ValueError("a locked door needs a 'key' or a 'switch' to open it")
         if self.kind == "hinged" and (self.key or self.switch or self.state != "closed"):
             raise ValueError("a hinged door is pushed open: no key, switch or state")
-        if (self.start is None) != (self.end is None) or (self.start and self.start == self.end):
-            raise ValueError("give both 'start' and 'end' (distinct), or neither")
+        if (self.start is None) != (self.end is None):
+            raise ValueError("give both 'start' and 'end', or neither")
+        if self.start and self.end and math.dist(self.start, self.end) < MIN_LENGTH:
+            raise ValueError(f"a door's start and end must be at least {MIN_LENGTH:g} apart")
         return self
 
 
@@ -170,6 +174,8 @@ class CorridorSpec(Spec):
         (x0, y0), (x1, y1) = self.start, self.end
         if (x0 != x1) == (y0 != y1):
             raise ValueError("a corridor runs either horizontally or vertically")
+        if math.dist(self.start, self.end) < MIN_LENGTH:
+            raise ValueError(f"a corridor's start and end must be at least {MIN_LENGTH:g} apart")
         return self
 
 

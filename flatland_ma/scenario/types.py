@@ -67,6 +67,8 @@ def _ordered(rect: tuple[float, float, float, float]) -> tuple[float, float, flo
     x0, y0, x1, y1 = rect
     if not (x1 > x0 and y1 > y0):
         raise ValueError(f"rectangle {list(rect)} must be [x0, y0, x1, y1] with x1 > x0, y1 > y0")
+    if min(x1 - x0, y1 - y0) < MIN_LENGTH:
+        raise ValueError(f"rectangle {list(rect)} must be at least {MIN_LENGTH:g} wide and high")
     return rect
 
 
