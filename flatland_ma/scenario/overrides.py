@@ -11,7 +11,7 @@ refused, naming its type.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -26,7 +26,9 @@ _SCALARS = (bool, int, float, str, type(None))
 def plain_overrides(overrides: Mapping[str, Any]) -> dict:
     """A plain copy of ``overrides``; raise ``ScenarioError`` at the first value that a
     file could not hold."""
-    return _Copier().copy(dict(overrides), (), 0)
+    copied = _Copier().copy(dict(overrides), (), 0)
+    assert isinstance(copied, dict)  # a mapping copies to a dict
+    return copied
 
 
 class _Copier:
@@ -64,5 +66,5 @@ class _Copier:
         )
 
 
-def _refuse(path: KeyPath, message: str):
+def _refuse(path: KeyPath, message: str) -> NoReturn:
     raise ScenarioError([Problem(OVERRIDES, None, path, message)])
