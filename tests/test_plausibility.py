@@ -83,6 +83,12 @@ REFUSED = [
     ({"corridors": [{"start": [100, 100], "end": [100, 100 + 1e-7]}]}, ("corridors", 0)),
     ({"rooms": [{"rect": [100, 100, 100 + 1e-5, 200]}]}, ("rooms", 0, "rect")),
     ({"zones": [{"rect": [100, 100, 200, 100.01]}]}, ("zones", 0, "rect")),
+    ({"items": [{"name": "dot", "color": "red", "reward": HUGE}]}, ("items", 0, "reward")),
+    ({"rules": [{"rule": "step_reward", "reward": -HUGE}]}, ("rules", 0, "reward")),
+    (
+        {"zones": [{"rect": [10, 10, 50, 50], "delivery_reward": 2e6}]},
+        ("zones", 0, "delivery_reward"),
+    ),
 ]
 
 
@@ -152,3 +158,18 @@ def test_a_grid_rooms_opening_wider_than_its_wall_is_refused(tmp_path):
     assert "do not fit in walls 100 long" in problem.message
     gen["door_width"] = 80  # 80 + 2 x 8 fits in 100
     flatland_ma.parallel_env(write(tmp_path, "obstacles: []\n"), layout={"generators": [gen]})
+
+
+def test_every_union_tag_is_dropped_from_key_paths():
+    """Each discriminated union of the format names its tag key in ``TAG_KEYS``, so that an
+    error inside a rule, a generator or an obstacle is located at the file's own keys."""
+    import pathlib
+    import re
+
+    from flatland_ma.scenario import messages
+
+    source = pathlib.Path(messages.__file__).parent
+    tags = set()
+    for path in source.glob("*.py"):
+        tags |= set(re.findall(r'discriminator="([a-z_]+)"', path.read_text()))
+    assert tags and tags <= set(messages.TAG_KEYS)

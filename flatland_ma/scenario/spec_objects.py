@@ -17,6 +17,7 @@ from flatland_ma.scenario.types import (
     Name,
     Real,
     Rect,
+    Reward,
     Size2,
     Spec,
     TextureSpec,
@@ -117,7 +118,7 @@ class ItemSpec(Spec):
     """Colour of the items."""
     texture: TextureSpec | None = None
     """A texture instead of the plain colour."""
-    reward: Real = 0.0
+    reward: Reward = 0.0
     """Reward to the agent that touches one."""
     count: Annotated[int, Field(strict=True, ge=0, le=10_000)] = 1
     """How many lie in the arena at once (ignored when ``positions`` is given)."""

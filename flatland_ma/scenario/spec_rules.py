@@ -6,7 +6,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from flatland_ma.scenario.types import Real, Spec
+from flatland_ma.scenario.types import Reward, Spec
 
 
 class StepRewardSpec(Spec):
@@ -14,7 +14,7 @@ class StepRewardSpec(Spec):
 
     rule: Literal["step_reward"]
     """Selects this rule."""
-    reward: Real
+    reward: Reward
     """Reward per step."""
 
 
@@ -24,7 +24,7 @@ class ContactRewardSpec(Spec):
 
     rule: Literal["contact_reward"]
     """Selects this rule."""
-    reward: Real
+    reward: Reward
     """Reward per step of contact."""
 
 

@@ -18,6 +18,7 @@ from flatland_ma.scenario.types import (
     Name,
     Real,
     Rect,
+    Reward,
     Seed,
     Size2,
     Spec,
@@ -192,7 +193,7 @@ class ZoneSpec(Spec):
     """Width and height of a zone placed at random."""
     area: Rect | None = None
     """Where a randomly placed zone may lie; None: the whole arena."""
-    reward: Real = 0.0
+    reward: Reward = 0.0
     """Reward to an agent each time its centre enters the zone."""
     once: Flag = False
     """Reward an agent only on its first entry in an episode."""
@@ -208,7 +209,7 @@ class ZoneSpec(Spec):
     team: Name | None = None
     """The team this zone's rewards go to: entering it rewards only agents of this team, and
     deliveries reward this team; none: every agent."""
-    delivery_reward: Real = 0.0
+    delivery_reward: Reward = 0.0
     """Reward to each agent of the zone's team (or to every agent) per delivery."""
     zero_sum: Flag = False
     """On a delivery the agents of the other teams get ``-delivery_reward``."""

@@ -34,6 +34,10 @@ MAX_FRICTION = 100.0
 """The largest friction coefficient (the defaults are 0.5)."""
 
 Real = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+MAX_REWARD = 1_000_000.0
+"""The largest reward (either sign) one thing gives: a step's rewards add up to a finite
+number however many of them an agent gets at once."""
+Reward = Annotated[float, Field(strict=True, ge=-MAX_REWARD, le=MAX_REWARD, allow_inf_nan=False)]
 Positive = Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(strict=True, ge=0, allow_inf_nan=False)]
 Length = Annotated[float, Field(strict=True, ge=MIN_LENGTH, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
