@@ -64,11 +64,13 @@ SINGLE_THREADED = {
     "MKL_NUM_THREADS": "1",
     "NUMBA_NUM_THREADS": "1",
 }
+OVERRIDES = "<overrides>"
+"""The source of a problem in the keyword overrides."""
 TEXT_KEPT = 4000
 """Longest message or traceback an outcome keeps."""
 
 KINDS = (
-    "works",  # loaded, reset and stepped (see finite / in_space)
+    "works",  # loaded, reset and stepped (see finite, in_space, rewards_finite)
     "located",  # ScenarioError whose every problem names its source
     "internal-error",  # ScenarioError wrapping an unexpected exception ("internal error")
     "unlocated",  # ScenarioError with a problem that names no source
@@ -103,16 +105,31 @@ class Outcome:
     reset_s: float | None = None
     steps: int = 0
     finite: bool | None = None
-    """Every observation (and reward) finite."""
+    """Every observation finite."""
     in_space: bool | None = None
     """Every observation inside its agent's observation space."""
     bad_observation: str = ""
+    """The first observation not finite or outside its space."""
+    rewards_finite: bool | None = None
+    rewards_nan: bool | None = None
+    """Some reward was NaN."""
+    bad_reward: str = ""
+    """The first reward not finite."""
     time_limit: float = TIME_LIMIT
     memory_limit_mb: float = MEMORY_BUDGET_MB
 
     @property
     def messages(self) -> str:
         return "\n".join(p["message"] for p in self.problems)
+
+    def unplaced(self) -> list[dict]:
+        """The problems that do not say where they are: without a source, or at a key of a
+        file without its line (overrides have no lines)."""
+        return [
+            p
+            for p in self.problems
+            if not p["source"] or (p["key"] and p["source"] != OVERRIDES and p["line"] is None)
+        ]
 
     @property
     def grown_mb(self) -> float:
@@ -129,10 +146,12 @@ class Outcome:
         if self.kind == "works":
             head += (
                 f"; load {self.load_s:.2f} s, first reset {self.reset_s:.2f} s, "
-                f"{self.steps} steps, finite={self.finite}, in_space={self.in_space}"
+                f"{self.steps} steps, finite={self.finite}, in_space={self.in_space}, "
+                f"rewards_finite={self.rewards_finite}"
             )
-            if self.bad_observation:
-                head += f" ({self.bad_observation})"
+            faults = [fault for fault in (self.bad_observation, self.bad_reward) if fault]
+            if faults:
+                head += f" ({'; '.join(faults)})"
         lines = [head]
         if self.phase:
             lines.append(f"during {self.phase}")
@@ -443,6 +462,7 @@ def run_case(request: dict) -> dict:
 def _exercise(env, steps: int, report: dict, np) -> None:
     """Reset with each seed and step at random, checking every observation."""
     report.update(steps=0, finite=True, in_space=True, bad_observation="")
+    report.update(rewards_finite=True, rewards_nan=False, bad_reward="")
     for seed in SEEDS:
         report["phase"] = "reset"
         started = time.perf_counter()
@@ -477,8 +497,9 @@ def _check(env, observations: dict, rewards: dict, report: dict, np) -> None:
             )
     for agent, reward in rewards.items():
         if not np.isfinite(reward):
-            report["finite"] = False
-            report["bad_observation"] = report["bad_observation"] or (
+            report["rewards_finite"] = False
+            report["rewards_nan"] = report["rewards_nan"] or bool(np.isnan(reward))
+            report["bad_reward"] = report["bad_reward"] or (
                 f"{agent}'s reward after {report['steps']} steps is {reward}"
             )
 

@@ -13,9 +13,7 @@ import re
 import pytest
 
 from tests.hostile.cases import BOUNDED, CASES, FOLDER, LOCATED, WORKS, Case
-from tests.isolated import MEMORY_BUDGET_MB, Outcome, runner
-
-OVERRIDES = "<overrides>"
+from tests.isolated import Outcome, runner
 
 
 def marks(case: Case) -> list:
@@ -37,33 +35,32 @@ def test_hostile_file(case: Case, isolated, tmp_path):
     path = case.path(tmp_path)
     outcome = isolated.run(path, time_limit=case.time_limit, steps=case.steps)
     report = f"{path.name}: {outcome.summary()}"
-    assert outcome.kind != "timeout" and outcome.wall_s <= case.time_limit + 1.0, report
-    assert outcome.grown_mb < MEMORY_BUDGET_MB, report
+    # The runner kills a case at its time limit and caps its address space: a case that
+    # needs more of either ends as a timeout or a MemoryError.
+    assert outcome.kind not in ("timeout", "memory"), report
     if case.expect == BOUNDED:
         assert outcome.kind in (WORKS, LOCATED), report
     else:
         assert outcome.kind == case.expect, report
     if outcome.kind == WORKS:
-        assert outcome.finite and outcome.in_space, report
+        assert outcome.finite and outcome.in_space and outcome.rewards_finite, report
         assert outcome.steps > 0, report
-    elif case.expect == LOCATED:
+    else:  # every problem names its file, and its line for a fault at a key of a file
+        assert not outcome.unplaced(), f"not located: {outcome.unplaced()}\n{report}"
+    if case.expect == LOCATED:
         check_located(case, str(path), outcome, report)
 
 
 def check_located(case: Case, path: str, outcome: Outcome, report: str) -> None:
-    """Every problem names a file (and a line, for a fault at a key of a file); the one
-    expected is at ``case.key`` in the expected file, with ``case.words`` in it."""
-    for problem in outcome.problems:
-        assert problem["source"], report
-        if problem["key"] and problem["source"] != OVERRIDES:
-            assert problem["line"] is not None, f"no line for {problem}\n{report}"
+    """The problem expected is at ``case.key`` in the expected file, with ``case.words``
+    in its message."""
     expected = [p for p in outcome.problems if case.key is None or p["key"] == case.key]
     assert expected, f"no problem at {case.key!r}\n{report}"
     problem = expected[0]
     source = case.source or f"^{re.escape(path)}$"
     assert re.search(source, problem["source"]), report
     for words in case.words:
-        assert words in problem["message"], f"{words!r} not in {problem['message']!r}"
+        assert words in problem["message"], f"{words!r} not in the message\n{report}"
 
 
 def test_every_file_of_the_corpus_has_a_row():

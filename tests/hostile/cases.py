@@ -10,8 +10,9 @@ runs each row in a process of its own (``tests/isolated.py``) and checks its out
 - ``located``: ``ScenarioError`` whose problems each name their file (and, for a fault at a
   key, its line); the problem at ``key`` (the key path as printed, ``""`` for the whole
   file, None for any problem) has each of ``words`` in its message;
-- ``bounded``: either of the two, for legal but huge files that the package may run or
-  refuse as too much work, as long as it answers within the time limit.
+- ``bounded``: either of the two (with finite rewards too, if it works), for legal but
+  huge files that the package may run or refuse as too much work, as long as it answers
+  within the time limit.
 
 Rows with ``pending`` or ``bug`` are expected to fail until the package changes (strict
 xfail): ``pending`` names work in progress, ``bug`` a fault this corpus found.
@@ -274,6 +275,11 @@ NUMBERS = [
     works("hex_octal_sizes.yaml"),  # 0x12C and 0454 are both 300
     located("everything_1e308.yaml", "agent.radius", "less than or equal to 10000"),
     works("rewards_1e308.yaml"),
+    bounded(
+        "rewards_overflow.yaml",
+        bug="rewards are checked one by one: two step rewards of 1e308 add up to an "
+        "infinite reward every step",
+    ),
     located("nan_reward.yaml", "items[0].reward", "finite"),
     located("inf_step_reward.yaml", "rules[0].step_reward", "finite"),
     works("huge_obstacle_angle.yaml"),
