@@ -501,4 +501,13 @@ LAYOUT = [
     ),
 ]
 
-CASES = [*YAML, *NUMBERS, *PHYSICS, *EXTENDS, *LAYOUT]
+STRESSED = [
+    # legal worlds at the limits of masses, speeds, forces and the solver, run longer
+    works("physics_fast_light_agent.yaml", steps=100),
+    works("physics_heavy_agent_light_door.yaml", steps=100),
+    works("physics_light_agent_heavy_box.yaml", steps=100),
+    works("physics_elastic_crowd.yaml", steps=100),
+    works("physics_arm_mass_ratios.yaml", steps=100),
+]
+
+CASES = [*YAML, *NUMBERS, *PHYSICS, *STRESSED, *EXTENDS, *LAYOUT]
