@@ -1,0 +1,588 @@
+"""Running one scenario case in a process of its own, with a time and a memory limit.
+
+A case is a scenario (a file path or a shipped name) and keyword overrides. It is loaded
+with ``flatland_ma.parallel_env``; if it loads, the env is reset with two seeds and
+stepped with random actions, and every observation is checked to be finite and inside
+the observation space. Whatever the case does (hang, exhaust the memory, abort in C), the
+test that runs it gets an ``Outcome`` back and the test run goes on.
+
+Starting Python and importing the package and its compiled kernels takes seconds, too
+long to pay per case. So one *zygote* process per test process imports everything and
+warms up once (it builds and steps a few envs, which loads the kernels), then serves
+requests: for each it forks a child, which limits its own address space and CPU time and
+runs the case, and reports a JSON outcome through a pipe. The zygote kills the child
+(its process group) when the wall-clock limit passes. The child's peak resident memory
+comes from ``wait4``. A fork of the warm zygote costs a few milliseconds.
+
+The zygote reads requests from its stdin and exits at end of file, so it ends with the
+test process that started it (and the kernel kills it, and any child, if its parent
+dies: ``PR_SET_PDEATHSIG``). It runs single-threaded (BLAS threads off), so forking it is
+safe.
+
+Run this file to try a case by hand::
+
+    python tests/isolated.py SCENARIO [OVERRIDES_AS_JSON]
+"""
+
+from __future__ import annotations
+
+import atexit
+import ctypes
+import gc
+import json
+import math
+import os
+import resource
+import select
+import signal
+import subprocess
+import sys
+import time
+import traceback
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+"""The project's root: the zygote imports ``flatland_ma`` from here."""
+
+TIME_LIMIT = 30.0
+"""Wall-clock seconds a case may take, by default (load, two resets and the steps)."""
+MEMORY_BUDGET_MB = 1024
+"""Address space a case may add to the zygote's, in MiB, by default. The zygote maps
+about 500 MiB (most of it reserved, not resident: numba, llvmlite, numpy); a case that
+needs more than this much on top is refused by the kernel and sees ``MemoryError``."""
+STEPS = 10
+"""Random steps after each of the two resets."""
+SEEDS = (0, 1)
+WARM_UP = ("fruits_poisons", "textured_fruits", "push_box", "maze_goal", "hinged_doors")
+"""Shipped scenarios the zygote builds and steps once, so that their kernels (ray
+casting, textures, reachability) are loaded before any fork."""
+SINGLE_THREADED = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "NUMBA_NUM_THREADS": "1",
+}
+OVERRIDES = "<overrides>"
+"""The source of a problem in the keyword overrides."""
+TEXT_KEPT = 4000
+"""Longest message or traceback an outcome keeps."""
+
+KINDS = (
+    "works",  # loaded, reset and stepped (see finite, in_space, rewards_finite)
+    "located",  # ScenarioError whose every problem names its source
+    "internal-error",  # ScenarioError wrapping an unexpected exception ("internal error")
+    "unlocated",  # ScenarioError with a problem that names no source
+    "other-exception",  # any other exception, while loading or running
+    "memory",  # MemoryError
+    "timeout",  # killed after the wall-clock limit
+    "crashed",  # died by a signal (SIGABRT from a C assertion, SIGSEGV) or exited early
+)
+
+
+@dataclass
+class Outcome:
+    """What running a case gave; ``kind`` is one of ``KINDS``."""
+
+    kind: str
+    wall_s: float = 0.0
+    """Wall-clock seconds from fork to the child's exit."""
+    peak_rss_mb: float = 0.0
+    """The child's peak resident memory (it starts as a copy of the zygote's)."""
+    start_rss_mb: float = 0.0
+    """The child's resident memory when it started (the pages it shares with the zygote
+    count once it touches them, so its peak counts some of the zygote's too)."""
+    detail: str = ""
+    """The first problem (``str(problem)``), the exception, or why the child died."""
+    problems: list[dict] = field(default_factory=list)
+    """Each problem of a ScenarioError: source, line, key (as printed) and message."""
+    phase: str = ""
+    """Where an exception came from: load, reset or step."""
+    traceback: str = ""
+    warnings: list[str] = field(default_factory=list)
+    load_s: float | None = None
+    reset_s: float | None = None
+    steps: int = 0
+    finite: bool | None = None
+    """Every observation finite."""
+    in_space: bool | None = None
+    """Every observation inside its agent's observation space."""
+    bad_observation: str = ""
+    """The first observation not finite or outside its space."""
+    rewards_finite: bool | None = None
+    rewards_nan: bool | None = None
+    """Some reward was NaN."""
+    bad_reward: str = ""
+    """The first reward not finite."""
+    time_limit: float = TIME_LIMIT
+    memory_limit_mb: float = MEMORY_BUDGET_MB
+
+    @property
+    def messages(self) -> str:
+        return "\n".join(p["message"] for p in self.problems)
+
+    def unplaced(self) -> list[dict]:
+        """The problems that do not say where they are: without a source, or at a key of a
+        file without its line (overrides have no lines)."""
+        return [
+            p
+            for p in self.problems
+            if not p["source"] or (p["key"] and p["source"] != OVERRIDES and p["line"] is None)
+        ]
+
+    @property
+    def grown_mb(self) -> float:
+        """Resident memory the child added to what it started with."""
+        return self.peak_rss_mb - self.start_rss_mb
+
+    def summary(self) -> str:
+        """One paragraph saying what happened, with the figures, for assertion messages."""
+        head = (
+            f"{self.kind} in {self.wall_s:.2f} s (limit {self.time_limit:g} s), "
+            f"peak RSS {self.peak_rss_mb:.0f} MiB (+{self.grown_mb:.0f} MiB from its start; "
+            f"address space limit +{self.memory_limit_mb:g} MiB)"
+        )
+        if self.kind == "works":
+            head += (
+                f"; load {self.load_s:.2f} s, first reset {self.reset_s:.2f} s, "
+                f"{self.steps} steps, finite={self.finite}, in_space={self.in_space}, "
+                f"rewards_finite={self.rewards_finite}"
+            )
+            faults = [fault for fault in (self.bad_observation, self.bad_reward) if fault]
+            if faults:
+                head += f" ({'; '.join(faults)})"
+        lines = [head]
+        if self.phase:
+            lines.append(f"during {self.phase}")
+        if self.detail:
+            lines.append(self.detail)
+        if self.traceback:
+            lines.append(self.traceback)
+        if self.warnings:
+            lines.append("warnings: " + "; ".join(self.warnings))
+        return "\n".join(lines)
+
+
+# -- the client, in the test process -------------------------------------------------------
+
+
+class ZygoteError(RuntimeError):
+    """The zygote itself failed (not a case): it could not start or stopped answering."""
+
+
+class Runner:
+    """A warm zygote serving cases; ``run`` sends one case and returns its ``Outcome``."""
+
+    def __init__(self):
+        self._process: subprocess.Popen | None = None
+
+    def run(
+        self,
+        scenario: str | Path,
+        overrides: dict | None = None,
+        time_limit: float = TIME_LIMIT,
+        memory_budget_mb: float = MEMORY_BUDGET_MB,
+        steps: int = STEPS,
+        prelude: str = "",
+    ) -> Outcome:
+        """Run a case: ``parallel_env(scenario, **overrides)``, then two resets and
+        ``steps`` random steps after each. ``prelude`` is Python the child runs first,
+        under its limits (to test this runner with cases that hang, abort or allocate)."""
+        request = {
+            "scenario": str(scenario),
+            "overrides": overrides or {},
+            "time_limit": time_limit,
+            "memory_budget_mb": memory_budget_mb,
+            "steps": steps,
+            "prelude": prelude,
+        }
+        line = json.dumps(request, allow_nan=True) + "\n"
+        process = self._started()
+        try:
+            assert process.stdin is not None
+            process.stdin.write(line.encode())
+            process.stdin.flush()
+            answer = self._read_line(process, time_limit + 30.0)
+        except (OSError, ZygoteError):
+            self.close()
+            raise
+        return Outcome(**json.loads(answer))
+
+    def close(self) -> None:
+        process, self._process = self._process, None
+        if process is None:
+            return
+        if process.stdin is not None:
+            process.stdin.close()  # end of file: the zygote exits
+        try:
+            process.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+    def _started(self) -> subprocess.Popen:
+        if self._process is not None and self._process.poll() is None:
+            return self._process
+        env = dict(os.environ, **SINGLE_THREADED)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+        self._process = subprocess.Popen(
+            [sys.executable, str(Path(__file__).resolve()), "--serve"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            env=env,
+            cwd=str(ROOT),
+        )
+        ready = json.loads(self._read_line(self._process, 300.0))
+        if not ready.get("ready"):
+            raise ZygoteError(f"the zygote did not start: {ready}")
+        return self._process
+
+    @staticmethod
+    def _read_line(process: subprocess.Popen, timeout: float) -> str:
+        """One line from the zygote, or ``ZygoteError`` if none comes within ``timeout``."""
+        assert process.stdout is not None
+        ready, _, _ = select.select([process.stdout], [], [], timeout)
+        if not ready:
+            process.kill()
+            raise ZygoteError(f"the zygote did not answer within {timeout:g} s")
+        line = process.stdout.readline()
+        if not line:
+            raise ZygoteError(f"the zygote exited (code {process.wait()})")
+        return line.decode()
+
+
+_shared: Runner | None = None
+
+
+def runner() -> Runner:
+    """The test process's one runner (its zygote is started on first use, closed at exit),
+    shared by every test module that runs isolated cases."""
+    global _shared
+    if _shared is None:
+        _shared = Runner()
+        atexit.register(_shared.close)
+    return _shared
+
+
+# -- the zygote ----------------------------------------------------------------------------
+
+
+def serve() -> None:
+    """The zygote's loop: warm up, say so, then one outcome line per request line."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the test process decides when to stop
+    _die_with_parent()
+    answers = os.fdopen(os.dup(1), "w")
+    os.dup2(2, 1)  # anything printed by the package goes to stderr, not into the answers
+    _warm_up()
+    gc.collect()
+    gc.freeze()  # children then do not touch (and copy) the warm objects when collecting
+    answers.write(json.dumps({"ready": True}) + "\n")
+    answers.flush()
+    for line in sys.stdin:
+        outcome = run_forked(json.loads(line))
+        answers.write(json.dumps(outcome.__dict__, allow_nan=True) + "\n")
+        answers.flush()
+
+
+def _warm_up() -> None:
+    import flatland_ma
+
+    for name in WARM_UP:
+        env = flatland_ma.parallel_env(name)
+        env.reset(seed=0)
+        for _ in range(3):
+            env.step({a: env.action_space(a).sample() for a in env.agents})
+
+
+def run_forked(request: dict) -> Outcome:
+    """Run one case in a forked child; kill it after the time limit."""
+    time_limit = float(request["time_limit"])
+    read_end, write_end = os.pipe()
+    start = time.monotonic()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        os.close(read_end)
+        _child(request, write_end)
+    os.close(write_end)
+    try:
+        os.setpgid(pid, pid)  # also done by the child: whichever runs first
+    except OSError:
+        pass
+    data, waited = _collect(read_end, pid, start + time_limit)
+    os.close(read_end)
+    timed_out = waited is None
+    if timed_out:
+        _kill(pid)
+        waited = os.wait4(pid, 0)
+    _, status, usage = waited
+    wall = time.monotonic() - start
+    start_line, _, report = data.partition(b"\n")
+    outcome = _judge(report, status, timed_out, time_limit)
+    outcome.wall_s = wall
+    outcome.peak_rss_mb = usage.ru_maxrss / 1024
+    try:
+        outcome.start_rss_mb = float(start_line)
+    except ValueError:  # it died before saying
+        pass
+    outcome.time_limit = time_limit
+    outcome.memory_limit_mb = float(request["memory_budget_mb"])
+    return outcome
+
+
+def _collect(read_end: int, pid: int, deadline: float) -> tuple[bytes, tuple | None]:
+    """The child's report, read as it comes (so that a long one cannot fill the pipe and
+    block the child), and its ``wait4`` result once it exits; None if the deadline
+    passes first."""
+    chunks = []
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            return b"".join(chunks), None
+        ready, _, _ = select.select([read_end], [], [], left)
+        if not ready:
+            continue
+        chunk = os.read(read_end, 1 << 16)
+        if not chunk:
+            break
+        chunks.append(chunk)
+    while time.monotonic() < deadline:  # it exits right after closing the pipe
+        waited = os.wait4(pid, os.WNOHANG)
+        if waited[0]:
+            return b"".join(chunks), waited
+        time.sleep(0.002)
+    return b"".join(chunks), None
+
+
+def _kill(pid: int) -> None:
+    for kill in (os.killpg, os.kill):
+        try:
+            kill(pid, signal.SIGKILL)
+            return
+        except ProcessLookupError:
+            continue
+
+
+def _judge(data: bytes, status: int, timed_out: bool, time_limit: float) -> Outcome:
+    if timed_out:
+        return Outcome("timeout", detail=f"still running after {time_limit:g} s; killed")
+    if os.WIFSIGNALED(status):
+        name = signal.Signals(os.WTERMSIG(status)).name
+        return Outcome("crashed", detail=f"killed by {name}")
+    code = os.WEXITSTATUS(status)
+    try:
+        report = json.loads(data)
+    except ValueError:
+        return Outcome("crashed", detail=f"exited with code {code} without a report")
+    return Outcome(**report)
+
+
+# -- the child -----------------------------------------------------------------------------
+
+
+def _child(request: dict, write_end: int) -> None:
+    """Limit this process, run the case, write the report, exit. Never returns."""
+    code = 0
+    try:
+        _write(write_end, b"%f\n" % (_status_kib("VmRSS") / 1024))
+        os.setpgid(0, 0)
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        _die_with_parent()
+        _quiet()
+        _limit(request)
+        exec(request["prelude"], {})
+        report = run_case(request)
+    except BaseException as err:  # noqa: BLE001 - anything at all is reported
+        report = _exception_report("memory" if isinstance(err, MemoryError) else "crashed", err)
+        code = 1
+    try:
+        data = json.dumps(report, allow_nan=True).encode()
+    except BaseException:  # noqa: BLE001
+        data = json.dumps({"kind": "crashed", "detail": "the report could not be written"})
+        data = data.encode()
+    try:
+        _write(write_end, data)
+        os.close(write_end)
+    finally:
+        os._exit(code)
+
+
+def _write(fd: int, data: bytes) -> None:
+    while data:
+        data = data[os.write(fd, data) :]
+
+
+def _quiet() -> None:
+    """Send the child's output nowhere (warnings are reported with the outcome)."""
+    null = os.open(os.devnull, os.O_RDWR)
+    for fd in (0, 1, 2):
+        os.dup2(null, fd)
+    os.close(null)
+
+
+def _limit(request: dict) -> None:
+    """Cap the address space at the current size plus the budget, and the CPU time just
+    above the wall-clock limit (in case the zygote cannot kill); no core files."""
+    vm = _status_kib("VmSize") * 1024
+    budget = int(float(request["memory_budget_mb"]) * 1024 * 1024)
+    resource.setrlimit(resource.RLIMIT_AS, (vm + budget, vm + budget))
+    cpu = math.ceil(float(request["time_limit"])) + 2
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+
+
+def run_case(request: dict) -> dict:
+    """Load the case's scenario and, if it loads, reset and step it; the report's fields
+    are ``Outcome``'s."""
+    import numpy as np
+
+    import flatland_ma
+    from flatland_ma.scenario.errors import ScenarioError, format_path
+
+    report: dict = {"kind": "works"}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        started = time.perf_counter()
+        try:
+            env = flatland_ma.parallel_env(request["scenario"], **request["overrides"])
+        except ScenarioError as err:
+            report = _scenario_error_report(err, format_path)
+        except BaseException as err:  # noqa: BLE001
+            report = _exception_report(_kind_of(err), err, phase="load")
+        else:
+            report["load_s"] = time.perf_counter() - started
+            try:
+                _exercise(env, request["steps"], report, np)
+            except BaseException as err:  # noqa: BLE001
+                report = {**report, **_exception_report(_kind_of(err), err, report["phase"])}
+    report["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught or []})[:20]
+    return report
+
+
+def _exercise(env, steps: int, report: dict, np) -> None:
+    """Reset with each seed and step at random, checking every observation."""
+    report.update(steps=0, finite=True, in_space=True, bad_observation="")
+    report.update(rewards_finite=True, rewards_nan=False, bad_reward="")
+    for seed in SEEDS:
+        report["phase"] = "reset"
+        started = time.perf_counter()
+        observations, _ = env.reset(seed=seed)
+        report.setdefault("reset_s", time.perf_counter() - started)
+        _check(env, observations, {}, report, np)
+        for i, agent in enumerate(env.possible_agents):
+            env.action_space(agent).seed(seed * 1000 + i)
+        report["phase"] = "step"
+        for _ in range(steps):
+            if not env.agents:
+                break
+            actions = {a: env.action_space(a).sample() for a in env.agents}
+            observations, rewards, *_ = env.step(actions)
+            report["steps"] += 1
+            _check(env, observations, rewards, report, np)
+    report["phase"] = ""
+
+
+def _check(env, observations: dict, rewards: dict, report: dict, np) -> None:
+    for agent, observation in observations.items():
+        arrays = observation.values() if isinstance(observation, dict) else [observation]
+        if not all(np.isfinite(a).all() for a in arrays):
+            report["finite"] = False
+            report["bad_observation"] = report["bad_observation"] or (
+                f"{agent}'s observation after {report['steps']} steps is not finite"
+            )
+        if not env.observation_space(agent).contains(observation):
+            report["in_space"] = False
+            report["bad_observation"] = report["bad_observation"] or (
+                f"{agent}'s observation after {report['steps']} steps is outside its space"
+            )
+    for agent, reward in rewards.items():
+        if not np.isfinite(reward):
+            report["rewards_finite"] = False
+            report["rewards_nan"] = report["rewards_nan"] or bool(np.isnan(reward))
+            report["bad_reward"] = report["bad_reward"] or (
+                f"{agent}'s reward after {report['steps']} steps is {reward}"
+            )
+
+
+def _scenario_error_report(err, format_path) -> dict:
+    problems = [
+        {
+            "source": p.source,
+            "line": p.line,
+            "key": format_path(p.path),
+            "message": p.message[:TEXT_KEPT],
+        }
+        for p in err.problems
+    ][:50]
+    if not problems:
+        kind = "unlocated"
+    elif any("internal error" in p["message"] for p in problems):
+        kind = "internal-error"
+    elif all(p["source"] for p in problems):
+        kind = "located"
+    else:
+        kind = "unlocated"
+    report = {"kind": kind, "problems": problems, "phase": "load"}
+    report["detail"] = str(err.problems[0])[:TEXT_KEPT] if err.problems else str(err)
+    if kind == "internal-error":
+        report["traceback"] = _traceback(err.__cause__ or err)
+    return report
+
+
+def _kind_of(err: BaseException) -> str:
+    return "memory" if isinstance(err, MemoryError) else "other-exception"
+
+
+def _exception_report(kind: str, err: BaseException, phase: str = "") -> dict:
+    return {
+        "kind": kind,
+        "phase": phase,
+        "detail": f"{type(err).__name__}: {err}"[:TEXT_KEPT],
+        "traceback": _traceback(err),
+    }
+
+
+def _traceback(err: BaseException) -> str:
+    text = "".join(traceback.format_exception(type(err), err, err.__traceback__))
+    return text[-TEXT_KEPT:]
+
+
+# -- processes -----------------------------------------------------------------------------
+
+
+def _status_kib(field_name: str) -> int:
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith(field_name + ":"):
+                return int(line.split()[1])
+    raise LookupError(field_name)
+
+
+def _die_with_parent() -> None:
+    """Ask the kernel to kill this process when its parent dies (Linux only)."""
+    pr_set_pdeathsig = 1
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(pr_set_pdeathsig, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        return
+    if os.getppid() == 1:  # the parent died before the request was made
+        os._exit(1)
+
+
+def _main(argv: list[str]) -> None:
+    if argv[:1] == ["--serve"]:
+        serve()
+        return
+    if not argv:
+        print(__doc__)
+        return
+    overrides = json.loads(argv[1]) if len(argv) > 1 else {}
+    outcome = runner().run(argv[0], overrides)
+    print(outcome.summary())
+    for problem in outcome.problems:
+        print(f"  {problem['source']}:{problem['line']}: {problem['key']}: {problem['message']}")
+
+
+if __name__ == "__main__":
+    _main(sys.argv[1:])
