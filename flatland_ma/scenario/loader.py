@@ -130,8 +130,6 @@ def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Mark
     """Parse a file (following ``extends``) into plain data and the line of every key."""
     path = scenario_path(name)
     source = str(path)
-    if source in _chain or len(_chain) > _MAX_EXTENDS:
-        raise ScenarioError([Problem(source, None, ("extends",), "extends itself in a cycle")])
     try:
         data = path.read_bytes()
     except OSError as err:
@@ -147,18 +145,33 @@ def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Mark
     base_name = raw.pop("extends", None)
     if base_name is None:
         return raw, marks
+
+    def fault(message: str) -> ScenarioError:
+        return ScenarioError([locate(marks, ("extends",), message, source)])
+
     if not isinstance(base_name, str):
-        raise ScenarioError(
-            [locate(marks, ("extends",), "expected the name of a scenario", source)]
-        )
+        raise fault("expected the name of a scenario")
     try:
-        base, base_marks = read_raw(base_name, _chain + (source,))
+        base_path = _base_path(base_name, path)
     except ValueError as err:
-        if isinstance(err, ScenarioError):
-            raise
-        raise ScenarioError([locate(marks, ("extends",), str(err), source)]) from None
+        raise fault(str(err)) from None
+    chain = _chain + (str(path.resolve()),)
+    if str(base_path.resolve()) in chain:
+        raise fault(f"extends {base_name!r}, which leads back to this file: a cycle")
+    if len(chain) > _MAX_EXTENDS:
+        raise fault(f"a chain of more than {_MAX_EXTENDS} files extending one another")
+    base, base_marks = read_raw(base_path, chain)
     del marks[("extends",)]
     return merge(base, raw, base_marks, (), marks), base_marks
+
+
+def _base_path(name: str, extending: Path) -> Path:
+    """The file ``extends: name`` names: a path is read from the extending file's folder
+    when there is such a file there (else as given), a bare name is a shipped scenario."""
+    beside = extending.parent / name
+    if name and beside.is_file():
+        return beside
+    return scenario_path(name)
 
 
 def merge(base: dict, top: Mapping, marks: Marks, prefix: KeyPath, top_marks) -> dict:

@@ -4,6 +4,7 @@ union tags pydantic adds), the file and line it was written at, and one clear me
 from __future__ import annotations
 
 import difflib
+import reprlib
 import types
 import typing
 from collections.abc import Sequence
@@ -64,7 +65,7 @@ def _union_message(errors: list[ErrorDetails]) -> str:
             text = text.removeprefix("Input should be ")
         if text not in texts:
             texts.append(text)
-    return f"{', or '.join(texts)}; got {errors[0].get('input')!r}"
+    return f"{', or '.join(texts)}; got {_shown(errors[0].get('input'))}"
 
 
 def _message(error: ErrorDetails, root: type[BaseModel]) -> str:
@@ -80,7 +81,21 @@ def _message(error: ErrorDetails, root: type[BaseModel]) -> str:
     if kind == "missing":
         return f"missing required key {loc[-1]!r}"
     text = error["msg"].removeprefix("Value error, ")
-    return text if kind == "value_error" else f"{text}; got {error.get('input')!r}"
+    return text if kind == "value_error" else f"{text}; got {_shown(error.get('input'))}"
+
+
+SHOWN = 120
+"""The most characters of a wrong value a message repeats."""
+_REPR = reprlib.Repr()
+_REPR.maxlist = _REPR.maxtuple = _REPR.maxdict = 8
+_REPR.maxstring = _REPR.maxother = SHOWN
+
+
+def _shown(value) -> str:
+    """The value as the message shows it, cut short if long (a list of thousands, a huge
+    string)."""
+    text = _REPR.repr(value)
+    return text if len(text) <= SHOWN else text[: SHOWN - 3] + "..."
 
 
 def _data_path(loc: tuple, raw: Any) -> KeyPath:

@@ -51,6 +51,13 @@ def _compose(text: str):
     recurses in C, where a deep file would overflow the stack); else in Python."""
     if not yaml.__with_libyaml__:  # pragma: no cover - PyYAML's wheels bundle libyaml
         return yaml.compose(text, Loader=_Loader)
+    try:
+        return _compose_fast(text)
+    except yaml.YAMLError:  # PyYAML's own reader says more about what is wrong, and where
+        return yaml.compose(text, Loader=_Loader)
+
+
+def _compose_fast(text: str):
     depth = 0
     for event in yaml.parse(text, Loader=yaml.CSafeLoader):
         if isinstance(event, yaml.CollectionStartEvent):
