@@ -126,3 +126,40 @@ def test_layouts_are_new_each_episode_or_fixed_by_a_switch():
     other = flatland_ma.parallel_env("maze_goal", layout={**fixed, "seed": 8})
     other.reset(seed=1)
     assert layout_signature(other) != a
+
+
+def _carve_one_by_one(walls, carves):
+    """Every carve tried against every wall, as the definition reads."""
+    for c in carves:
+        out = []
+        for w in walls:
+            if w.horizontal and c.y0 < w.start[1] < c.y1:
+                out += layout._cut(w, 0, c.x0, c.x1)
+            elif w.vertical and c.x0 < w.start[0] < c.x1:
+                out += layout._cut(w, 1, c.y0, c.y1)
+            else:
+                out.append(w)
+        walls = out
+    return walls
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_carving_by_lines_cuts_what_every_carve_against_every_wall_would(seed):
+    rng = np.random.default_rng(seed)
+    grid = np.arange(0.0, 200.0, 20.0)  # shared lines, so carves meet several walls
+
+    def wall(k):
+        a, b = np.sort(rng.choice(grid, 2, replace=False))
+        c = float(rng.choice(grid))
+        ends = [((a, c), (b, c)), ((c, a), (c, b)), ((a, a), (b, b))][k % 3]
+        start, end = (tuple(map(float, p)) for p in ends)
+        return layout.WallPiece(start, end, 4.0, (1, 2, 3), None, ("walls", k))
+
+    walls = [wall(k) for k in range(60)]
+    carves = []
+    for _ in range(40):
+        x0, y0 = rng.uniform(0, 190, 2)
+        w, h = rng.uniform(1, 40, 2)
+        carves.append(layout.Carve(float(x0), float(y0), float(x0 + w), float(y0 + h)))
+    expected = _carve_one_by_one(walls, carves)
+    assert layout.carve(walls, carves) == expected and len(expected) > len(walls)

@@ -8,6 +8,7 @@ add their own pieces, drawn from a random generator; ``ground.py`` makes them ph
 
 from __future__ import annotations
 
+import bisect
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -170,18 +171,35 @@ def _corridor_carve(corridor, t) -> Carve:
 
 
 def carve(walls: list[WallPiece], carves: list[Carve]) -> list[WallPiece]:
-    """Cut every carve out of the axis-parallel walls whose centre line crosses it."""
+    """Cut every carve out of the axis-parallel walls whose centre line crosses it.
+
+    Walls are filed by their line, so a carve visits only the lines it crosses (thousands
+    of rooms' openings cost what they cut, not every wall each); pieces keep their walls'
+    order."""
+    lines: dict[tuple[int, float], list[tuple[int, WallPiece]]] = {}
+    others = []
+    for k, w in enumerate(walls):
+        if w.horizontal:
+            lines.setdefault((0, w.start[1]), []).append((k, w))
+        elif w.vertical:
+            lines.setdefault((1, w.start[0]), []).append((k, w))
+        else:
+            others.append((k, w))
+    at = {axis: sorted(c for a, c in lines if a == axis) for axis in (0, 1)}
     for c in carves:
-        out = []
-        for w in walls:
-            if w.horizontal and c.y0 < w.start[1] < c.y1:
-                out += _cut(w, 0, c.x0, c.x1)
-            elif w.vertical and c.x0 < w.start[0] < c.x1:
-                out += _cut(w, 1, c.y0, c.y1)
-            else:
-                out.append(w)
-        walls = out
-    return walls
+        for axis, lo, hi, cut_lo, cut_hi in (
+            (0, c.y0, c.y1, c.x0, c.x1),
+            (1, c.x0, c.x1, c.y0, c.y1),
+        ):
+            coords = at[axis]
+            for coord in coords[bisect.bisect_right(coords, lo) : bisect.bisect_left(coords, hi)]:
+                line = lines[(axis, coord)]
+                lines[(axis, coord)] = [
+                    (k, piece) for k, w in line for piece in _cut(w, axis, cut_lo, cut_hi)
+                ]
+    pieces = others + [kw for line in lines.values() for kw in line]
+    pieces.sort(key=lambda kw: kw[0])
+    return [w for _, w in pieces]
 
 
 def _cut(w: WallPiece, axis: int, lo: float, hi: float) -> list[WallPiece]:
