@@ -5,7 +5,7 @@ import warnings
 import gymnasium
 import pytest
 from gymnasium.utils.env_checker import check_env
-from pettingzoo.test import api_test, parallel_api_test, render_test, seed_test
+from pettingzoo.test import api_test, parallel_api_test, render_test, seed_test, state_test
 
 import flatland_ma
 from flatland_ma.registration import gym_id
@@ -24,6 +24,13 @@ def test_aec_api(scenario):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the checker's warnings are failures here
         api_test(flatland_ma.env(scenario), num_cycles=100)
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_global_state(scenario):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the checker's warnings are failures here
+        state_test(flatland_ma.env(scenario), flatland_ma.parallel_env(scenario), num_cycles=50)
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)

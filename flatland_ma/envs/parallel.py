@@ -29,6 +29,7 @@ from pettingzoo import ParallelEnv
 from flatland_ma.agents.actuators import Actuator
 from flatland_ma.build.bodies import make_parts, make_sensors
 from flatland_ma.build.builder import Episode, build
+from flatland_ma.build.census import state_entities, world_state
 from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
@@ -80,6 +81,10 @@ class FlatlandParallelEnv(ParallelEnv):
         self.observation_spaces = {
             a: observation_space(own) for a, own in zip(self.possible_agents, self._sensors)
         }
+        self._world_state = world_state(spec)
+        self.state_space = self._world_state.space
+        """The global state's space: see ``state()``."""
+        self._state_parts: tuple = ()
         self.episode: Episode | None = None
         self.num_steps = 0
         # Steps after which every agent is truncated; None for no limit (the Gymnasium env
@@ -174,6 +179,7 @@ class FlatlandParallelEnv(ParallelEnv):
 
     def _start_episode(self) -> None:
         self.episode = episode = build(self.spec, self.np_random, self._sensors)
+        self._state_parts = state_entities(episode)
         episode.sensors.observe()
         self.num_steps = 0
         self._live = list(range(len(self.possible_agents)))
@@ -247,6 +253,26 @@ class FlatlandParallelEnv(ParallelEnv):
                     bodies[i].command(0.0, 0.0, 0.0)
             self.agents = [self.possible_agents[i] for i in self._live]
         return live, rewards, terminated, truncated
+
+    # -- global state -------------------------------------------------------------------
+
+    def state(self) -> np.ndarray:
+        """The whole world as one vector, for centralised critics: every agent's pose,
+        velocity and whether it still acts, every item's place and presence, every movable
+        object's pose and every door's state (``flatland_ma.sensors.world_state`` gives the
+        layout; ``state_labels`` names each entry)."""
+        if self.episode is None:
+            raise RuntimeError("call reset() before state()")
+        self.enter()
+        try:
+            return self._world_state.read(*self._state_parts)
+        finally:
+            self.leave()
+
+    @property
+    def state_labels(self) -> tuple[str, ...]:
+        """The name of each entry of ``state()``, e.g. ``agent_0.x``, ``fruits[2].present``."""
+        return self._world_state.labels
 
     # -- rendering ----------------------------------------------------------------------
 
