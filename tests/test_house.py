@@ -109,9 +109,11 @@ def test_several_sensors_give_a_dict_observed_in_one_kernel_call():
 
 def test_sensor_names_must_differ():
     with pytest.raises(ScenarioError, match="two sensors are called 'camera'"):
-        flatland_ma.load_scenario("fruits_poisons", agent={"sensors": [{}, {}]})
+        flatland_ma.load_scenario("fruits_poisons", agent={"sensors": [{"type": "camera"}] * 2})
     with pytest.raises(ScenarioError, match="mounted on the head needs a 'head'"):
-        flatland_ma.load_scenario("fruits_poisons", agent={"sensors": [{"mount": "head"}]})
+        flatland_ma.load_scenario(
+            "fruits_poisons", agent={"sensors": [{"type": "camera", "mount": "head"}]}
+        )
 
 
 def test_every_kind_is_found_by_name():

@@ -21,7 +21,7 @@ import numpy as np
 
 from flatland_ma.build.bodies import make_sensors
 from flatland_ma.policies.motion import BaseMotion
-from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.scenario.schema import CameraSpec, ScenarioSpec
 
 COLOR_TOLERANCE = 0.04
 """Largest distance in RGB space at which a recovered colour matches an item's."""
@@ -45,8 +45,15 @@ DETOUR_LENGTHS = (20.0, 40.0, 60.0, 90.0)
 
 class GreedyForager:
     def __init__(self, spec: ScenarioSpec):
-        camera_spec = spec.agent.sensor_specs[0]  # it reads the first camera's image
-        camera = make_sensors(spec.agent)[0]
+        found = [k for k, s in enumerate(spec.agent.sensor_specs) if isinstance(s, CameraSpec)]
+        if not found:
+            raise ValueError("the greedy forager reads a camera's image: the agent has none")
+        k = found[0]  # it reads the first camera's image
+        camera_spec = spec.agent.sensor_specs[k]
+        assert isinstance(camera_spec, CameraSpec)
+        camera = make_sensors(spec.agent)[k]
+        self.key = camera.name if len(spec.agent.sensor_specs) > 1 else None
+        """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
         self.angles = camera.angles
         self.half_fov = camera.half_fov
         self.ux, self.uy = np.cos(self.angles), np.sin(self.angles)
@@ -90,8 +97,11 @@ class GreedyForager:
         self._last = (0.0, 0.0)
         self._turns: list[float] = []
 
-    def act(self, observation: np.ndarray):
-        """The action for one observation of shape (rays, 4)."""
+    def act(self, observation):
+        """The action for one observation: the camera's image (rays, 4), or a ``Dict``
+        holding it."""
+        if self.key is not None:
+            observation = observation[self.key]
         forward, turn = self._decide(np.asarray(observation, np.float64))
         self._last = (forward, turn)
         self._turns = self._turns[-DITHER_TURNS:] + [np.sign(turn)]

@@ -15,7 +15,7 @@ from pydantic_core import ErrorDetails
 
 from flatland_ma.scenario.errors import KeyPath, Marks, Problem, SpecError, locate
 
-TAG_KEYS = ("shape", "generator", "rule")
+TAG_KEYS = ("shape", "generator", "rule", "type")
 """Keys whose value picks the model of a mapping (pydantic puts it in error locations)."""
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from flatland_ma.scenario.types import (
     MAX_ARENA_SIDE,
@@ -48,9 +48,23 @@ class CameraSpec(Spec):
     (it looks where the head turns; the agent needs a ``head``)."""
 
 
-SensorSpec = CameraSpec
-"""Every sensor a file may declare (a union discriminated by ``type`` once there are
-several kinds); a new sensor adds its spec here."""
+class LidarSpec(Spec):
+    """A ring of range-finding rays evenly all around: distances only, no colour."""
+
+    type: Literal["lidar"]
+    """Selects this sensor."""
+    name: Name | None = None
+    """Its observation's key when an agent has several sensors; none: its type."""
+    rays: Annotated[int, Field(strict=True, ge=1, le=4096)] = 32
+    """Number of rays, the first straight ahead, then counter-clockwise."""
+    range: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 300.0
+    """Farthest distance a ray measures; distances are given as fractions of it."""
+    mount: Literal["base", "head"] = "base"
+    """Where it sits: on the base, or on the head (the agent needs a ``head``)."""
+
+
+SensorSpec = Annotated[CameraSpec | LidarSpec, Field(discriminator="type")]
+"""Every sensor a file may declare, by its ``type``; a new sensor adds its spec here."""
 
 
 class SpawnSpec(Spec):
@@ -152,9 +166,10 @@ class AgentSpec(Spec):
     camera: CameraSpec = CameraSpec()
     """The first-person camera: the agent's one sensor, unless ``sensors`` is given (then
     this key is not used)."""
-    sensors: Annotated[tuple[SensorSpec, ...], Field(min_length=1, max_length=16)] | None = None
-    """Several sensors instead of the one ``camera``; their names (type, unless given)
-    must differ, and the observation is then a mapping from name to each sensor's."""
+    sensors: Annotated[tuple[SensorSpec, ...], Field(max_length=16)] | None = None
+    """Several sensors instead of the one ``camera``, each with its ``type`` (``camera``,
+    ``lidar``); their names (type, unless given) must differ, and the observation is then
+    a mapping from name to each sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()
@@ -166,6 +181,15 @@ class AgentSpec(Spec):
     def sensor_specs(self) -> tuple[SensorSpec, ...]:
         """The agent's sensors: ``sensors`` if given, else its ``camera``."""
         return self.sensors if self.sensors is not None else (self.camera,)
+
+    @field_validator("sensors")
+    @classmethod
+    def _some_sensor(cls, sensors):
+        # Not ``min_length``: pydantic would also report a list whose one entry is wrong
+        # as too short.
+        if sensors is not None and not sensors:
+            raise ValueError("give at least one sensor, or leave 'sensors' out for the camera")
+        return sensors
 
     @model_validator(mode="after")
     def _parts(self):
