@@ -211,8 +211,11 @@ def _play(args) -> int:
 
 def _bench(args) -> int:
     from flatland_ma.bench import format_table, run
+    from flatland_ma.bench_sensors import format_costs, sensor_costs
 
     print(format_table(run(args.steps)))
+    print()
+    print(format_costs(sensor_costs(max(100, args.steps // 4))))
     return 0
 
 

@@ -106,3 +106,12 @@ def test_list_into_a_reader_that_leaves_early_prints_no_traceback():
     error = process.stderr.read().decode()
     assert process.wait(timeout=60) == 0
     assert first and "Traceback" not in error and "BrokenPipe" not in error
+
+
+def test_bench_reports_what_each_sensor_kind_costs():
+    from flatland_ma.bench_sensors import SETUPS, format_costs, sensor_costs
+
+    costs = sensor_costs(steps=50)
+    assert [c.label for c in costs[: len(SETUPS)]] == [label for label, _ in SETUPS]
+    assert all(c.micros_per_agent_step > 0 for c in costs) and len(costs) == len(SETUPS) + 1
+    assert all(c.label in format_costs(costs) for c in costs)

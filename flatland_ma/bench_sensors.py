@@ -1,0 +1,61 @@
+"""What each kind of sensor, and the global state, costs per agent-step.
+
+Each setup gives every agent of ``fruits_poisons_multi`` one set of sensors; the suite
+then casts all their rays and reads every agent's observation, timed alone (no physics,
+no task), after a reset and a few steps so that the world looks as it does in play.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import flatland_ma
+
+SCENARIO = "fruits_poisons_multi"
+SETUPS = (
+    ("camera, 64 rays (the default)", [{"type": "camera"}]),
+    ("lidar, 32 rays", [{"type": "lidar"}]),
+    ("camera + lidar", [{"type": "camera"}, {"type": "lidar"}]),
+)
+
+
+@dataclass
+class SensorCost:
+    label: str
+    micros_per_agent_step: float
+
+
+def sensor_costs(steps: int = 5_000) -> list[SensorCost]:
+    """Microseconds per agent-step of each setup's sensing, and of ``state()``."""
+    costs = []
+    env = None
+    for label, sensors in SETUPS:
+        env = flatland_ma.parallel_env(SCENARIO, agent={"sensors": sensors})
+        suite, n = _warm(env), env.num_agents
+        start = time.perf_counter()
+        for _ in range(steps):
+            suite.observe()
+            for i in range(n):
+                suite.observation(i)
+        costs.append(SensorCost(label, 1e6 * (time.perf_counter() - start) / (steps * n)))
+    assert env is not None
+    start = time.perf_counter()
+    for _ in range(steps):
+        env.state()
+    per_agent = 1e6 * (time.perf_counter() - start) / (steps * env.num_agents)
+    costs.append(SensorCost("global state (state(), per env step / agents)", per_agent))
+    return costs
+
+
+def _warm(env):
+    env.reset(seed=0)
+    for _ in range(20):
+        env.step({a: env.action_space(a).sample() for a in env.agents})
+    return env.running.sensors
+
+
+def format_costs(costs: list[SensorCost]) -> str:
+    lines = [f"{'sensing, ' + SCENARIO:48} {'us per agent-step':>18}", "-" * 67]
+    lines += [f"{c.label:48} {c.micros_per_agent_step:>18.1f}" for c in costs]
+    return "\n".join(lines)
