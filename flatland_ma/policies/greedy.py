@@ -45,9 +45,15 @@ DETOUR_LENGTHS = (20.0, 40.0, 60.0, 90.0)
 
 class GreedyForager:
     def __init__(self, spec: ScenarioSpec):
-        found = [k for k, s in enumerate(spec.agent.sensor_specs) if isinstance(s, CameraSpec)]
+        found = [
+            k
+            for k, s in enumerate(spec.agent.sensor_specs)
+            if isinstance(s, CameraSpec) and s.channels == ("rgb", "depth")
+        ]
         if not found:
-            raise ValueError("the greedy forager reads a camera's image: the agent has none")
+            raise ValueError(
+                "the greedy forager reads a camera's colour and depth: the agent has none"
+            )
         k = found[0]  # it reads the first camera's image
         camera_spec = spec.agent.sensor_specs[k]
         assert isinstance(camera_spec, CameraSpec)

@@ -46,6 +46,19 @@ class CameraSpec(Spec):
     mount: Literal["base", "head"] = "base"
     """Where the camera sits: on the base (it looks where the agent heads) or on the head
     (it looks where the head turns; the agent needs a ``head``)."""
+    channels: Annotated[
+        tuple[Literal["rgb", "depth", "semantic"], ...], Field(min_length=1, max_length=3)
+    ] = ("rgb", "depth")
+    """What each ray gives, in this order: ``rgb`` (3 numbers), ``depth`` (1), ``semantic``
+    (the kind of thing hit: 0 nothing, 1 wall, 2 door, 3 obstacle, 4 item, 5 agent)."""
+    semantic: Literal["id", "onehot"] = "id"
+    """The semantic channel as the kind's id (one number), or one-hot (six)."""
+
+    @model_validator(mode="after")
+    def _distinct_channels(self):
+        if len(set(self.channels)) < len(self.channels):
+            raise ValueError("each channel may be given once")
+        return self
 
 
 class LidarSpec(Spec):

@@ -8,6 +8,7 @@ import numpy as np
 from gymnasium import spaces
 
 from flatland_ma.sensors.kernel import FALLOFF_LINEAR, FALLOFF_NONE
+from flatland_ma.sensors.semantic import SEMANTIC_KINDS
 from flatland_ma.sensors.sensor import Sensor
 
 CHANNELS = ("red", "green", "blue", "depth")
@@ -20,9 +21,11 @@ class Camera(Sensor, kind="camera"):
 
     Ray i points at ``fov * (1/2 - (i + 1/2) / rays)`` degrees from the heading
     (counter-clockwise positive), so the image reads left to right as the agent sees it.
-    Each pixel is the RGB colour of the first thing the ray hits times an intensity
-    (``1 - d / range`` for linear falloff), and the depth ``d / range``; a ray that hits
-    nothing gives black and depth 1. The observation is ``Box(0, 1, (rays, 4), float32)``.
+    Per ray, the ``channels`` in order: ``rgb``, the colour of the first thing the ray
+    hits times an intensity (``1 - d / range`` for linear falloff); ``depth``, ``d /
+    range``; ``semantic``, the kind of thing hit (``SEMANTIC_KINDS``), as its id or
+    one-hot. A ray that hits nothing gives black, depth 1 and kind 0. The observation is
+    ``Box(rays, width)`` float32; the default channels (rgb, depth) give width 4.
     """
 
     def __init__(
@@ -33,6 +36,8 @@ class Camera(Sensor, kind="camera"):
         falloff: str = "linear",
         mount: str = "base",
         name: str = "camera",
+        channels: tuple[str, ...] = ("rgb", "depth"),
+        semantic: str = "id",
     ):
         self.name = name
         self.mount = mount
@@ -41,7 +46,30 @@ class Camera(Sensor, kind="camera"):
         self.half_fov = float(np.abs(self.angles).max())
         self.view_range = float(range)
         self.falloff = FALLOFFS[falloff]
-        self.space = spaces.Box(0.0, 1.0, (rays, len(CHANNELS)), np.float32)
+        self.channels, self.onehot = tuple(channels), semantic == "onehot"
+        kinds = len(SEMANTIC_KINDS)
+        high = {
+            "rgb": [1.0] * 3,
+            "depth": [1.0],
+            "semantic": [1.0] * kinds if self.onehot else [kinds - 1.0],
+        }
+        top = np.array([h for c in self.channels for h in high[c]], np.float32)
+        self.space = spaces.Box(np.zeros((rays, len(top)), np.float32), np.tile(top, (rays, 1)))
+        self._plain = self.channels == ("rgb", "depth")
 
     def read(self, results, rays: slice) -> np.ndarray:
-        return results.image[rays].copy()
+        if self._plain:
+            return results.image[rays].copy()
+        parts = []
+        for channel in self.channels:
+            if channel == "rgb":
+                parts.append(results.image[rays, :3])
+            elif channel == "depth":
+                parts.append(results.image[rays, 3:4])
+            else:
+                kind = results.kinds[results.hit_entity[rays]]
+                if self.onehot:
+                    parts.append(np.eye(len(SEMANTIC_KINDS), dtype=np.float32)[kind])
+                else:
+                    parts.append(kind[:, None].astype(np.float32))
+        return np.concatenate(parts, axis=1).astype(np.float32, copy=False)

@@ -15,6 +15,7 @@ from gymnasium import spaces
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.geometry import Geometry
 from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
+from flatland_ma.sensors.semantic import kind_table
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.world.entities import Entity
 from flatland_ma.world.world import World
@@ -65,6 +66,9 @@ class Sensors:
         (``owner`` is the agent)."""
         self.world = world
         self.geometry = geo = Geometry(world)
+        self.kinds = kind_table(world.entities)
+        """The semantic kind of each entity by index (``hit_entity`` -1 reads the last:
+        nothing)."""
         self.cameras = cameras
         counts = counts if counts is not None else [1] * len(cameras)
         firsts = [sum(counts[:i]) for i in range(len(counts) + 1)]
