@@ -17,6 +17,11 @@ SETUPS = (
     ("camera, 64 rays (the default)", [{"type": "camera"}]),
     ("lidar, 32 rays", [{"type": "lidar"}]),
     ("camera + lidar", [{"type": "camera"}, {"type": "lidar"}]),
+    (
+        "camera with one-hot semantic channels",
+        [{"type": "camera", "channels": ["rgb", "depth", "semantic"], "semantic": "onehot"}],
+    ),
+    ("camera + proprioception", [{"type": "camera"}, {"type": "proprioception"}]),
 )
 
 

@@ -73,9 +73,11 @@ def fastest_parts(agent: AgentSpec, parts: list[Part]) -> list[tuple[str, float,
 def make_sensors(agent: AgentSpec) -> list[Sensor]:
     """The agent's sensors, from each spec's ``type``."""
     sensors = []
+    parts = make_parts(agent)
     for spec in agent.sensor_specs:
-        values = spec.model_dump(exclude={"type", "name"})
-        sensors.append(SENSOR_KINDS[spec.type](name=spec.name or spec.type, **values))
+        values = spec.model_dump(exclude={"type"})
+        values["name"] = spec.name or spec.type
+        sensors.append(SENSOR_KINDS[spec.type].from_spec(values, parts))
     return sensors
 
 

@@ -76,7 +76,22 @@ class LidarSpec(Spec):
     """Where it sits: on the base, or on the head (the agent needs a ``head``)."""
 
 
-SensorSpec = Annotated[CameraSpec | LidarSpec, Field(discriminator="type")]
+class ProprioceptionSpec(Spec):
+    """The agent's own motion and posture: velocity ahead and to the left and turn rate
+    (fractions of the top speeds), each joint's place between its limits (head, then arm
+    segments), and whether each grasper holds something; all in [-1, 1]."""
+
+    type: Literal["proprioception"]
+    """Selects this sensor."""
+    name: Name | None = None
+    """Its observation's key when an agent has several sensors; none: its type."""
+
+    @property
+    def mount(self) -> str:
+        return "base"
+
+
+SensorSpec = Annotated[CameraSpec | LidarSpec | ProprioceptionSpec, Field(discriminator="type")]
 """Every sensor a file may declare, by its ``type``; a new sensor adds its spec here."""
 
 
@@ -181,8 +196,8 @@ class AgentSpec(Spec):
     this key is not used)."""
     sensors: Annotated[tuple[SensorSpec, ...], Field(max_length=16)] | None = None
     """Several sensors instead of the one ``camera``, each with its ``type`` (``camera``,
-    ``lidar``); their names (type, unless given) must differ, and the observation is then
-    a mapping from name to each sensor's."""
+    ``lidar``, ``proprioception``); their names (type, unless given) must differ, and the
+    observation is then a mapping from name to each sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()

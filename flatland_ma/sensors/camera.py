@@ -57,7 +57,8 @@ class Camera(Sensor, kind="camera"):
         self.space = spaces.Box(np.zeros((rays, len(top)), np.float32), np.tile(top, (rays, 1)))
         self._plain = self.channels == ("rgb", "depth")
 
-    def read(self, results, rays: slice) -> np.ndarray:
+    def read(self, results, k: int) -> np.ndarray:
+        rays = results.slices[k]
         if self._plain:
             return results.image[rays].copy()
         parts = []

@@ -37,5 +37,5 @@ class Lidar(Sensor, kind="lidar"):
         self.falloff = FALLOFF_NONE
         self.space = spaces.Box(0.0, 1.0, (rays,), np.float32)
 
-    def read(self, results, rays: slice) -> np.ndarray:
-        return results.image[rays, 3].copy()
+    def read(self, results, k: int) -> np.ndarray:
+        return results.image[results.slices[k], 3].copy()

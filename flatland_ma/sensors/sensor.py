@@ -14,7 +14,8 @@ its scenario spec carries), plus that spec; the builder finds it in ``SENSOR_KIN
             ...
 
 Required: ``name``, ``mount``, ``space``, ``read``. Ray sensors also set ``angles``,
-``view_range``, ``half_fov`` and ``falloff``.
+``view_range``, ``half_fov`` and ``falloff``; a sensor that depends on the agent's parts
+overrides ``from_spec``.
 """
 
 from __future__ import annotations
@@ -50,7 +51,15 @@ class Sensor(Kinded, ABC):
     def n_rays(self) -> int:
         return len(self.angles)
 
+    @classmethod
+    def from_spec(cls, values: dict, parts: list) -> Sensor:
+        """The sensor a scenario's spec describes (``values``: its keys but ``type``), on
+        an agent with these parts (``agents.parts.Part``); most sensors ignore them."""
+        return cls(**values)
+
     @abstractmethod
-    def read(self, results: Any, rays: slice) -> np.ndarray:
-        """This step's observation (a fresh array in ``space``), from the suite's results
-        (``image``, ``distance``, ``hit_entity``, per ray) and this sensor's rays."""
+    def read(self, results: Any, k: int) -> np.ndarray:
+        """This step's observation (a fresh array in ``space``) of the suite's sensor
+        ``k`` (this one), from the suite's results: ``image``, ``distance``,
+        ``hit_entity`` per ray, this sensor's rays at ``slices[k]``, and what carries it
+        at ``carriers[k]`` (its agent's base, or head)."""

@@ -65,6 +65,8 @@ class Sensors:
         i's (default one each); ``eyes[k]`` carries sensor k: its agent's base or head
         (``owner`` is the agent)."""
         self.world = world
+        self.carriers = eyes
+        """What carries each sensor: its agent's base, or head."""
         self.geometry = geo = Geometry(world)
         self.kinds = kind_table(world.entities)
         """The semantic kind of each entity by index (``hit_entity`` -1 reads the last:
@@ -105,5 +107,5 @@ class Sensors:
         own = self.per_agent[agent_index]
         if len(own) == 1:
             k = own[0]
-            return self.cameras[k].read(self, self.slices[k])
-        return {self.cameras[k].name: self.cameras[k].read(self, self.slices[k]) for k in own}
+            return self.cameras[k].read(self, k)
+        return {self.cameras[k].name: self.cameras[k].read(self, k) for k in own}
