@@ -89,8 +89,7 @@ class _FreeCells:
         grid = placer.grid
         self.table = np.zeros((grid.ny + 1, grid.nx + 1), np.int32)
         self.table[1:, 1:] = placer.mask(None).cumsum(0, dtype=np.int32).cumsum(1)
-        self.xs = (np.arange(grid.nx) + 0.5) * grid.cell
-        self.ys = (np.arange(grid.ny) + 0.5) * grid.cell
+        self.xs, self.ys = grid.xs, grid.ys
 
     def count(self, rect: tuple) -> int:
         """Cells whose centre lies in ``rect`` (edges included, as ``NavGrid.cells_in``)."""

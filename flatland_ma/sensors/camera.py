@@ -56,6 +56,7 @@ class Camera(Sensor, kind="camera"):
         top = np.array([h for c in self.channels for h in high[c]], np.float32)
         self.space = spaces.Box(np.zeros((rays, len(top)), np.float32), np.tile(top, (rays, 1)))
         self._plain = self.channels == ("rgb", "depth")
+        self._onehot_rows = np.eye(kinds, dtype=np.float32)
 
     def read(self, results, k: int) -> np.ndarray:
         rays = results.slices[k]
@@ -70,7 +71,7 @@ class Camera(Sensor, kind="camera"):
             else:
                 kind = results.kinds[results.hit_entity[rays]]
                 if self.onehot:
-                    parts.append(np.eye(len(SEMANTIC_KINDS), dtype=np.float32)[kind])
+                    parts.append(self._onehot_rows[kind])
                 else:
                     parts.append(kind[:, None].astype(np.float32))
         return np.concatenate(parts, axis=1).astype(np.float32, copy=False)

@@ -116,8 +116,9 @@ class NavGrid:
         self.ny = max(1, math.ceil(size[1] / self.cell))
         self.blocked = np.zeros((self.ny, self.nx), np.bool_)
         # The arena's own walls: centres closer than ``clearance`` to its edges.
-        xs = (np.arange(self.nx) + 0.5) * self.cell
-        ys = (np.arange(self.ny) + 0.5) * self.cell
+        self.xs = xs = (np.arange(self.nx) + 0.5) * self.cell
+        self.ys = ys = (np.arange(self.ny) + 0.5) * self.cell
+        """The cells' centres along x and along y."""
         self.blocked[:, (xs < clearance) | (xs > size[0] - clearance)] = True
         self.blocked[(ys < clearance) | (ys > size[1] - clearance), :] = True
 
@@ -187,8 +188,7 @@ class NavGrid:
         mask = np.ones((self.ny, self.nx), np.bool_)
         if rect is not None:
             x0, y0, x1, y1 = rect[0] - grow, rect[1] - grow, rect[2] + grow, rect[3] + grow
-            xs = (np.arange(self.nx) + 0.5) * self.cell
-            ys = (np.arange(self.ny) + 0.5) * self.cell
+            xs, ys = self.xs, self.ys
             mask &= ((ys >= y0) & (ys <= y1))[:, None] & ((xs >= x0) & (xs <= x1))[None, :]
         return mask
 
