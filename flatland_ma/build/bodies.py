@@ -14,6 +14,7 @@ from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Part, agent_filter
 from flatland_ma.scenario.spec_agent import AgentSpec
+from flatland_ma.sensors.noise import Noise
 from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
 from flatland_ma.world.looks import RGB
 
@@ -75,9 +76,12 @@ def make_sensors(agent: AgentSpec) -> list[Sensor]:
     sensors = []
     parts = make_parts(agent)
     for spec in agent.sensor_specs:
-        values = spec.model_dump(exclude={"type"})
+        values = spec.model_dump(exclude={"type", "noise"})
         values["name"] = spec.name or spec.type
-        sensors.append(SENSOR_KINDS[spec.type].from_spec(values, parts))
+        sensor = SENSOR_KINDS[spec.type].from_spec(values, parts)
+        if spec.noise is not None and spec.noise.active:
+            sensor.noise = Noise(**spec.noise.model_dump())
+        sensors.append(sensor)
     return sensors
 
 

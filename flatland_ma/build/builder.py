@@ -135,7 +135,8 @@ def populate(
     eyes: list[Entity] = [
         b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own
     ]
-    suite = Sensors(world, eyes, [s for own in sensors for s in own], [len(s) for s in sensors])
+    own_sensors = [s for own in sensors for s in own]
+    suite = Sensors(world, eyes, own_sensors, [len(s) for s in sensors], site.grid, rng)
     hands = Hands(world.space, [hand for body in bodies for hand in body.hands])
     for hand in hands.hands:
         world.grips[hand.shape] = hand.touching

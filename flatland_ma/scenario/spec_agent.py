@@ -28,13 +28,42 @@ MAX_RATE = 720.0
 """The fastest turn of a base, a head or a joint allowed, degrees per second."""
 
 
-class CameraSpec(Spec):
+Probability = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)]
+
+
+class NoiseSpec(Spec):
+    """Noise on a sensor's readings, drawn from the env's seeded generator (the one
+    ``reset(seed=...)`` seeds). A reading is one entry of a vector, or one ray of a camera
+    or one pixel of an image (all its channels together). Applied in this order, then
+    clipped into the sensor's space; each kind is off at 0."""
+
+    gaussian: Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)] = 0.0
+    """Standard deviation of normal noise added to every entry, as a fraction of the
+    entry's range (high minus low)."""
+    salt_pepper: Probability = 0.0
+    """Chance that a reading is replaced by its lowest or highest value (even odds)."""
+    dropout: Probability = 0.0
+    """Chance that a reading is lost: set to its lowest value (zero for most sensors)."""
+
+    @property
+    def active(self) -> bool:
+        return self.gaussian > 0 or self.salt_pepper > 0 or self.dropout > 0
+
+
+class SensorBaseSpec(Spec):
+    """What every sensor's spec has: a name and its noise."""
+
+    name: Name | None = None
+    """Its observation's key when an agent has several sensors; none: its type."""
+    noise: NoiseSpec | None = None
+    """Noise on its readings; none (the default): exact readings."""
+
+
+class CameraSpec(SensorBaseSpec):
     """A first-person camera: a fan of rays giving a 1-D image of colour and depth."""
 
     type: Literal["camera"] = "camera"
     """Selects this sensor."""
-    name: Name | None = None
-    """Its observation's key when an agent has several sensors; none: its type."""
     rays: Annotated[int, Field(strict=True, ge=1, le=4096)] = 64
     """Number of rays, i.e. the width of the 1-D image."""
     fov: Annotated[float, Field(strict=True, gt=0, le=360, allow_inf_nan=False)] = 120.0
@@ -61,13 +90,11 @@ class CameraSpec(Spec):
         return self
 
 
-class LidarSpec(Spec):
+class LidarSpec(SensorBaseSpec):
     """A ring of range-finding rays evenly all around: distances only, no colour."""
 
     type: Literal["lidar"]
     """Selects this sensor."""
-    name: Name | None = None
-    """Its observation's key when an agent has several sensors; none: its type."""
     rays: Annotated[int, Field(strict=True, ge=1, le=4096)] = 32
     """Number of rays, the first straight ahead, then counter-clockwise."""
     range: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 300.0
@@ -76,15 +103,13 @@ class LidarSpec(Spec):
     """Where it sits: on the base, or on the head (the agent needs a ``head``)."""
 
 
-class ProprioceptionSpec(Spec):
+class ProprioceptionSpec(SensorBaseSpec):
     """The agent's own motion and posture: velocity ahead and to the left and turn rate
     (fractions of the top speeds), each joint's place between its limits (head, then arm
     segments), and whether each grasper holds something; all in [-1, 1]."""
 
     type: Literal["proprioception"]
     """Selects this sensor."""
-    name: Name | None = None
-    """Its observation's key when an agent has several sensors; none: its type."""
 
     @property
     def mount(self) -> str:

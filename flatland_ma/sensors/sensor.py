@@ -15,7 +15,8 @@ its scenario spec carries), plus that spec; the builder finds it in ``SENSOR_KIN
 
 Required: ``name``, ``mount``, ``space``, ``read``. Ray sensors also set ``angles``,
 ``view_range``, ``half_fov`` and ``falloff``; a sensor that depends on the agent's parts
-overrides ``from_spec``.
+overrides ``from_spec``, and one that depends on the episode (its world, its navigation
+grid) overrides ``attach``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import numpy as np
 from gymnasium import spaces
 
 from flatland_ma.registry import Kinded, Kinds
+from flatland_ma.sensors.noise import Noise
 
 SENSOR_KINDS = Kinds("flatland_ma.sensors", "sensor")
 """Every sensor class, by the ``type`` that scenario files give it."""
@@ -46,6 +48,8 @@ class Sensor(Kinded, ABC):
     view_range: float = 0.0
     half_fov: float = 0.0
     falloff: int = 0
+    noise: Noise | None = None
+    """Noise the suite adds to each reading (none: exact); set from the spec's ``noise``."""
 
     @property
     def n_rays(self) -> int:
@@ -56,6 +60,11 @@ class Sensor(Kinded, ABC):
         """The sensor a scenario's spec describes (``values``: its keys but ``type``), on
         an agent with these parts (``agents.parts.Part``); most sensors ignore them."""
         return cls(**values)
+
+    def attach(self, suite: Any, k: int) -> None:
+        """Called when each episode's suite is built, before the first ``read``: a sensor
+        that needs the episode (``suite.world``, the navigation grid ``suite.grid``, its
+        carrier ``suite.carriers[k]``) sets itself up here. Most sensors need nothing."""
 
     @abstractmethod
     def read(self, results: Any, k: int) -> np.ndarray:

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numba as nb
+import numpy as np
 from gymnasium import spaces
 
 from flatland_ma.sensors import kernel
@@ -18,6 +19,7 @@ from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
 from flatland_ma.sensors.semantic import kind_table
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.world.entities import Entity
+from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.world import World
 
 _KERNELS: dict[tuple, Callable] = {}
@@ -60,11 +62,16 @@ class Sensors:
         eyes: list[Entity],
         cameras: list[Sensor],
         counts: list[int] | None = None,
+        grid: NavGrid | None = None,
+        rng: np.random.Generator | None = None,
     ):
         """``cameras``: every sensor, agent by agent; ``counts[i]``: how many are agent
         i's (default one each); ``eyes[k]`` carries sensor k: its agent's base or head
-        (``owner`` is the agent)."""
+        (``owner`` is the agent); ``grid``: the episode's navigation grid, for sensors
+        that need it; ``rng``: the env's generator, which draws sensor noise."""
         self.world = world
+        self.grid = grid
+        self.rng = rng if rng is not None else np.random.default_rng(0)
         self.carriers = eyes
         """What carries each sensor: its agent's base, or head."""
         self.geometry = geo = Geometry(world)
@@ -91,6 +98,8 @@ class Sensors:
         self._args = (geo.pose, geo.shapes, geo.grid, geo.looks, self.eyes, self.out)
         self._args += (Scratch.for_shapes(geo.shapes),)
         self._kernel = compiled_kernel(self._args)
+        for k, sensor in enumerate(cameras):
+            sensor.attach(self, k)
 
     def observe(self) -> None:
         """Pick up what the world changed, read the moving bodies' poses and cast every
@@ -106,6 +115,12 @@ class Sensors:
         """A fresh copy of the agent's observation: its one sensor's, or a dict by name."""
         own = self.per_agent[agent_index]
         if len(own) == 1:
-            k = own[0]
-            return self.cameras[k].read(self, k)
-        return {self.cameras[k].name: self.cameras[k].read(self, k) for k in own}
+            return self._reading(own[0])
+        return {self.cameras[k].name: self._reading(k) for k in own}
+
+    def _reading(self, k: int) -> np.ndarray:
+        sensor = self.cameras[k]
+        reading = sensor.read(self, k)
+        if sensor.noise is not None:
+            reading = sensor.noise.apply(reading, sensor.space, self.rng)  # type: ignore[arg-type]
+        return reading
