@@ -3,6 +3,11 @@
 Each setup gives every agent of ``fruits_poisons_multi`` one set of sensors; the suite
 then casts all their rays and reads every agent's observation, timed alone (no physics,
 no task), after a reset and a few steps so that the world looks as it does in play.
+
+Smell reads a scent field that is searched again only when items are taken, come back or
+move (none do while the suite alone is timed); what one search of both channels costs is
+timed on its own, and the cost per agent-step in play is the reading plus that times the
+share of steps on which an item changes, over the number of agents.
 """
 
 from __future__ import annotations
@@ -11,8 +16,10 @@ import time
 from dataclasses import dataclass
 
 import flatland_ma
+from flatland_ma.sensors.smell import Smell
 
 SCENARIO = "fruits_poisons_multi"
+SMELL = {"type": "smell", "sources": ["fruits", "poisons"]}
 SETUPS = (
     ("camera, 64 rays (the default)", [{"type": "camera"}]),
     ("lidar, 32 rays", [{"type": "lidar"}]),
@@ -22,6 +29,8 @@ SETUPS = (
         [{"type": "camera", "channels": ["rgb", "depth", "semantic"], "semantic": "onehot"}],
     ),
     ("camera + proprioception", [{"type": "camera"}, {"type": "proprioception"}]),
+    ("smell, 2 channels (fruits, poisons)", [SMELL]),
+    ("camera + smell", [{"type": "camera"}, SMELL]),
 )
 
 
@@ -45,12 +54,27 @@ def sensor_costs(steps: int = 5_000) -> list[SensorCost]:
                 suite.observation(i)
         costs.append(SensorCost(label, 1e6 * (time.perf_counter() - start) / (steps * n)))
     assert env is not None
+    costs.append(_smell_search(steps // 10))
     start = time.perf_counter()
     for _ in range(steps):
         env.state()
     per_agent = 1e6 * (time.perf_counter() - start) / (steps * env.num_agents)
     costs.append(SensorCost("global state (state(), per env step / agents)", per_agent))
     return costs
+
+
+def _smell_search(searches: int) -> SensorCost:
+    """Microseconds one search of the scent field (both channels) takes, once per world."""
+    env = flatland_ma.parallel_env(SCENARIO, agent={"sensors": [SMELL]})
+    smell = _warm(env).cameras[0]
+    assert isinstance(smell, Smell) and smell.field is not None, "no smell sensor"
+    field = smell.field
+    start = time.perf_counter()
+    for _ in range(searches):
+        for c in range(len(field.members)):
+            field.search(c)
+    micros = 1e6 * (time.perf_counter() - start) / searches
+    return SensorCost("smell: one search of its field, when items change", micros)
 
 
 def _warm(env):

@@ -1,10 +1,11 @@
-"""Policies that ship with the package: a scripted greedy forager (from its observation
-only), a search-based planner and a scripted carrier of objects (privileged: they read
-the world), and uniform random play."""
+"""Policies that ship with the package: a scripted greedy forager and a sniffer that
+follows its nose (each from its own observation only), a search-based planner and a
+scripted carrier of objects (privileged: they read the world), and uniform random play."""
 
 from flatland_ma.policies.carrier import CarrierPolicy
 from flatland_ma.policies.greedy import GreedyForager
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy, evaluate
+from flatland_ma.policies.sniffer import Sniffer
 
-__all__ = ["CarrierPolicy", "GreedyForager", "PlannerPolicy", "RandomPolicy", "evaluate"]
+__all__ = ["CarrierPolicy", "GreedyForager", "PlannerPolicy", "RandomPolicy", "Sniffer", "evaluate"]

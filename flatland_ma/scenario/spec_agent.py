@@ -116,7 +116,46 @@ class ProprioceptionSpec(SensorBaseSpec):
         return "base"
 
 
-SensorSpec = Annotated[CameraSpec | LidarSpec | ProprioceptionSpec, Field(discriminator="type")]
+class SmellSpec(SensorBaseSpec):
+    """Two nostrils on the base, left and right of the heading, that smell items around
+    walls: per nostril and channel, ``exp(-d / spread)`` in [0, 1], where ``d`` is the
+    distance to the nearest live item of the channel going around walls and fixed
+    obstacles (not through them; doors let scent through), and 0 from ``range`` on. The
+    observation is ``(2, channels)``: row 0 the left nostril, row 1 the right."""
+
+    type: Literal["smell"]
+    """Selects this sensor."""
+    sources: Annotated[tuple[Name, ...], Field(min_length=1, max_length=16)] | None = None
+    """Item groups (their ``name``) smelled, one channel each in this order; none: one
+    channel for every item."""
+    spread: Length = 100.0
+    """Distance over which a scent weakens by a factor e."""
+    range: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 500.0
+    """Distance (around walls) from which an item is not smelled at all."""
+    nostril_angle: Annotated[float, Field(strict=True, gt=0, le=90)] = 45.0
+    """Degrees from the heading of each nostril, one to the left and one to the right."""
+    nostril_distance: Distance | None = None
+    """Distance of the nostrils from the base's centre; none: on its rim."""
+    cell: Length | None = None
+    """Width of the cells the scent spreads over; none: the agent's radius. Distances are
+    exact in the open and off by less than a cell per corner they turn around; finer cells
+    cost more each time items change (and are coarsened to at most 500,000 cells over all
+    channels)."""
+
+    @property
+    def mount(self) -> str:
+        return "base"
+
+    @model_validator(mode="after")
+    def _distinct_sources(self):
+        if self.sources is not None and len(set(self.sources)) < len(self.sources):
+            raise ValueError("each item group may be smelled once")
+        return self
+
+
+SensorSpec = Annotated[
+    CameraSpec | LidarSpec | ProprioceptionSpec | SmellSpec, Field(discriminator="type")
+]
 """Every sensor a file may declare, by its ``type``; a new sensor adds its spec here."""
 
 
@@ -221,8 +260,8 @@ class AgentSpec(Spec):
     this key is not used)."""
     sensors: Annotated[tuple[SensorSpec, ...], Field(max_length=16)] | None = None
     """Several sensors instead of the one ``camera``, each with its ``type`` (``camera``,
-    ``lidar``, ``proprioception``); their names (type, unless given) must differ, and the
-    observation is then a mapping from name to each sensor's."""
+    ``lidar``, ``proprioception``, ``smell``); their names (type, unless given) must
+    differ, and the observation is then a mapping from name to each sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()

@@ -38,6 +38,10 @@ class World:
         self.log = ContactLog()
         self.changed: list[Entity] = []
         """Fixed entities moved, hidden or shown since the sensors last looked."""
+        self.revision = 0
+        """How many times a fixed entity was moved, hidden or shown. ``changed`` belongs to
+        the sensors' geometry; anything else that keeps something derived from those
+        entities (the scent of items) compares this count with the one it last saw."""
         self.grips: dict[pymunk.Shape, list[Entity]] = {}
         """For each grasper's shape, the graspable objects it touches, first touched first."""
         self._inside: list[list[bool]] = []
@@ -87,6 +91,7 @@ class World:
         if present:
             self.space.remove(*present)
         self.changed.append(entity)
+        self.revision += 1
 
     def restore(self, entity: Entity) -> None:
         """Put a withdrawn entity's shapes back."""
@@ -95,6 +100,7 @@ class World:
         if absent:
             self.space.add(*absent)
         self.changed.append(entity)
+        self.revision += 1
 
     def retire(self, entity: Entity) -> None:
         """Take an entity out of the physics for good (e.g. an agent whose episode ended)."""
@@ -110,6 +116,7 @@ class World:
         entity.body.position = (x, y)
         self.space.reindex_shapes_for_body(entity.body)
         self.changed.append(entity)
+        self.revision += 1
 
     def place(self, entity: Entity, x: float, y: float, angle: float) -> None:
         """Put a dynamic entity at (x, y) turned by ``angle``, at rest."""
