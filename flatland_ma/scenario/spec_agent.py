@@ -70,8 +70,12 @@ class CameraSpec(SensorBaseSpec):
     """Field of view in degrees, centred on the heading."""
     range: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 300.0
     """Farthest distance a ray sees; depth is normalised by it."""
-    falloff: Literal["linear", "none"] = "linear"
-    """How colour intensity falls with distance: ``linear`` is ``1 - d / range``."""
+    falloff: Literal["linear", "exponential", "none"] = "linear"
+    """How colour intensity falls with distance ``d``: ``linear`` is ``1 - d / range``,
+    ``exponential`` is ``exp(-d / decay)``, ``none`` keeps full colour at any distance."""
+    decay: Annotated[float, Field(strict=True, gt=0, le=2 * MAX_ARENA_SIDE)] | None = None
+    """For ``exponential`` falloff: the distance over which intensity falls to 1/e (about
+    37%); none: a third of ``range``."""
     mount: Literal["base", "head"] = "base"
     """Where the camera sits: on the base (it looks where the agent heads) or on the head
     (it looks where the head turns; the agent needs a ``head``)."""

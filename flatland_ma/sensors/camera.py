@@ -12,8 +12,9 @@ from flatland_ma.sensors.semantic import SEMANTIC_KINDS
 from flatland_ma.sensors.sensor import Sensor
 
 CHANNELS = ("red", "green", "blue", "depth")
-FALLOFFS = {"linear": FALLOFF_LINEAR, "none": FALLOFF_NONE}
-"""How colour intensity falls with distance ``d``: ``1 - d / range``, or not at all."""
+FALLOFFS = {"linear": FALLOFF_LINEAR, "exponential": FALLOFF_NONE, "none": FALLOFF_NONE}
+"""The kernel's law for each falloff: ``1 - d / range`` there, or full colour (exponential
+falloff is applied to the full colour when the camera reads its rays)."""
 
 
 class Camera(Sensor, kind="camera"):
@@ -22,7 +23,8 @@ class Camera(Sensor, kind="camera"):
     Ray i points at ``fov * (1/2 - (i + 1/2) / rays)`` degrees from the heading
     (counter-clockwise positive), so the image reads left to right as the agent sees it.
     Per ray, the ``channels`` in order: ``rgb``, the colour of the first thing the ray
-    hits times an intensity (``1 - d / range`` for linear falloff); ``depth``, ``d /
+    hits times an intensity (``1 - d / range`` for linear falloff, ``exp(-d / decay)``
+    for exponential, 1 for none); ``depth``, ``d /
     range``; ``semantic``, the kind of thing hit (``SEMANTIC_KINDS``), as its id or
     one-hot. A ray that hits nothing gives black, depth 1 and kind 0. The observation is
     ``Box(rays, width)`` float32; the default channels (rgb, depth) give width 4.
@@ -38,6 +40,7 @@ class Camera(Sensor, kind="camera"):
         name: str = "camera",
         channels: tuple[str, ...] = ("rgb", "depth"),
         semantic: str = "id",
+        decay: float | None = None,
     ):
         self.name = name
         self.mount = mount
@@ -46,6 +49,7 @@ class Camera(Sensor, kind="camera"):
         self.half_fov = float(np.abs(self.angles).max())
         self.view_range = float(range)
         self.falloff = FALLOFFS[falloff]
+        self.decay = (decay or range / 3.0) if falloff == "exponential" else None
         self.channels, self.onehot = tuple(channels), semantic == "onehot"
         kinds = len(SEMANTIC_KINDS)
         high = {
@@ -60,14 +64,19 @@ class Camera(Sensor, kind="camera"):
 
     def read(self, results, k: int) -> np.ndarray:
         rays = results.slices[k]
+        image = results.image[rays]
+        if self.decay is not None:
+            image = image.copy()
+            fade = np.exp(-results.distance[rays] / self.decay).astype(np.float32)
+            image[:, :3] *= fade[:, None]
         if self._plain:
-            return results.image[rays].copy()
+            return image.copy() if self.decay is None else image
         parts = []
         for channel in self.channels:
             if channel == "rgb":
-                parts.append(results.image[rays, :3])
+                parts.append(image[:, :3])
             elif channel == "depth":
-                parts.append(results.image[rays, 3:4])
+                parts.append(image[:, 3:4])
             else:
                 kind = results.kinds[results.hit_entity[rays]]
                 if self.onehot:
