@@ -22,6 +22,8 @@ SETUPS = (
         [{"type": "camera", "channels": ["rgb", "depth", "semantic"], "semantic": "onehot"}],
     ),
     ("camera + proprioception", [{"type": "camera"}, {"type": "proprioception"}]),
+    ("top-down, 32 x 32 rgb", [{"type": "topdown"}]),
+    ("top-down, 32 x 32 rgb, masked", [{"type": "topdown", "masked": True}]),
 )
 
 
