@@ -8,7 +8,7 @@ import numpy as np
 from gymnasium import spaces
 
 from flatland_ma.sensors.kernel import FALLOFF_LINEAR, FALLOFF_NONE
-from flatland_ma.sensors.semantic import SEMANTIC_KINDS
+from flatland_ma.sensors.semantic import SEMANTIC_COLORS, SEMANTIC_KINDS
 from flatland_ma.sensors.sensor import Sensor
 
 CHANNELS = ("red", "green", "blue", "depth")
@@ -61,6 +61,28 @@ class Camera(Sensor, kind="camera"):
         self.space = spaces.Box(np.zeros((rays, len(top)), np.float32), np.tile(top, (rays, 1)))
         self._plain = self.channels == ("rgb", "depth")
         self._onehot_rows = np.eye(kinds, dtype=np.float32)
+
+    def picture(self, reading: np.ndarray) -> np.ndarray:
+        """One row of pixels per channel group, as in the paper's figure: the colour as
+        seen, the depth in grey (near is bright), the kind of thing hit in its fixed colour
+        (``SEMANTIC_COLORS``)."""
+        rows, column = [], 0
+        for channel in self.channels:
+            if channel == "rgb":
+                rows.append(np.clip(reading[:, column : column + 3], 0.0, 1.0) * 255.0)
+                column += 3
+            elif channel == "depth":
+                near = (1.0 - np.clip(reading[:, column], 0.0, 1.0)) * 255.0
+                rows.append(np.repeat(near[:, None], 3, axis=1))
+                column += 1
+            else:
+                width = len(SEMANTIC_KINDS) if self.onehot else 1
+                block = reading[:, column : column + width]
+                kind = block.argmax(axis=1) if self.onehot else np.rint(block[:, 0])
+                kind = np.clip(kind, 0, len(SEMANTIC_KINDS) - 1).astype(np.intp)
+                rows.append(SEMANTIC_COLORS[kind])
+                column += width
+        return np.rint(np.stack(rows)).astype(np.uint8)
 
     def read(self, results, k: int) -> np.ndarray:
         rays = results.slices[k]

@@ -100,6 +100,9 @@ class Sensors:
         self._args = (geo.pose, geo.shapes, geo.grid, geo.looks, self.eyes, self.out)
         self._args += (Scratch.for_shapes(geo.shapes),)
         self._kernel = compiled_kernel(self._args)
+        self.readings: list[np.ndarray | None] = [None] * len(cameras)
+        """The reading of each sensor last handed out (noise included), for pictures:
+        the renderer draws these and never reads a sensor itself (no noise is drawn)."""
         for k, sensor in enumerate(cameras):
             sensor.attach(self, k)
 
@@ -125,4 +128,5 @@ class Sensors:
         reading = sensor.read(self, k)
         if sensor.noise is not None:
             reading = sensor.noise.apply(reading, sensor.space, self.rng)  # type: ignore[arg-type]
+        self.readings[k] = reading
         return reading
