@@ -181,5 +181,5 @@ def _fit(picture: np.ndarray, width: int, height: int) -> np.ndarray:
     """The picture scaled to exactly ``width x height`` (nearest pixel: cells stay sharp)."""
     if picture.shape[:2] == (height, width):
         return np.ascontiguousarray(picture, np.uint8)
-    image = Image.fromarray(np.ascontiguousarray(picture, np.uint8), "RGB")
+    image = Image.fromarray(np.ascontiguousarray(picture, np.uint8))
     return np.asarray(image.resize((width, height), Image.Resampling.NEAREST))

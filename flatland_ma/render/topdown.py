@@ -184,7 +184,7 @@ class Renderer:
             self._text(draw, (x + PAD, y + 1), label, colour, self.block_size[0] - PAD)
             for k, where in zip(suite.per_agent[i], self.placed[i]):
                 image = senses.draw(suite.cameras[k], suite.readings[k], where.slot)
-                picture.paste(Image.fromarray(image, "RGB"), (where.x, where.y))
+                picture.paste(Image.fromarray(image), (where.x, where.y))
             if i == focus:
                 w, h = self.block_size
                 draw.rectangle((x, y, x + w - 1, y + h - GAP), outline=FOCUS_COLOR)
