@@ -2,7 +2,6 @@
 decoded frame by frame, several agents and sensors, and the Gymnasium env's frames for
 video wrappers."""
 
-
 import gymnasium
 import numpy as np
 from PIL import Image, ImageSequence

@@ -161,8 +161,34 @@ class TopdownSpec(SensorBaseSpec):
         return self
 
 
+class TouchSpec(SensorBaseSpec):
+    """Pressure on the body: a ring of contact sensors around the base, sector 0 straight
+    ahead and the rest counter-clockwise, then one entry per part (head, arm segments,
+    graspers); each the mean force of the last step's pushes (walls, obstacles, doors,
+    agents; not items) as a fraction of ``max_force``, capped at 1."""
+
+    type: Literal["touch"]
+    """Selects this sensor."""
+    sectors: Annotated[int, Field(strict=True, ge=1, le=360)] = 8
+    """Number of sectors around the base, each ``360 / sectors`` degrees wide."""
+    max_force: Annotated[
+        float, Field(strict=True, gt=0, le=100 * MAX_FORCE, allow_inf_nan=False)
+    ] = 20_000.0
+    """The force that reads 1 (stronger pushes read 1 too). An agent driving into
+    something it cannot move pushes with its motor's ``max_force`` (15000 by default:
+    0.75); a collision adds, for one step, its mass times its speed over the step's
+    duration."""
+    parts: Annotated[bool, Field(strict=True)] = True
+    """Also one entry per body part, after the sectors (nothing for a plain body)."""
+
+    @property
+    def mount(self) -> str:
+        return "base"
+
+
 SensorSpec = Annotated[
-    CameraSpec | LidarSpec | ProprioceptionSpec | TopdownSpec, Field(discriminator="type")
+    CameraSpec | LidarSpec | ProprioceptionSpec | TopdownSpec | TouchSpec,
+    Field(discriminator="type"),
 ]
 """Every sensor a file may declare, by its ``type``; a new sensor adds its spec here."""
 
@@ -268,8 +294,9 @@ class AgentSpec(Spec):
     this key is not used)."""
     sensors: Annotated[tuple[SensorSpec, ...], Field(max_length=16)] | None = None
     """Several sensors instead of the one ``camera``, each with its ``type`` (``camera``,
-    ``lidar``, ``proprioception``, ``topdown``); their names (type, unless given) must
-    differ, and the observation is then a mapping from name to each sensor's."""
+    ``lidar``, ``proprioception``, ``topdown``, ``touch``); their names (type, unless
+    given) must differ, and the observation is then a mapping from name to each
+    sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()
