@@ -72,7 +72,7 @@ class Screen:
         s = self.session
         world = self.renderer.frame(s.env, focus=s.controlled)
         picture = Image.new("RGB", self.size, BAR_COLOR)
-        picture.paste(Image.fromarray(world, "RGB"), (0, 0))
+        picture.paste(Image.fromarray(world), (0, 0))
         draw = ImageDraw.Draw(picture)
         y = self.renderer.size[1] + PAD
         draw.text((PAD, y), self.status(), fill=STATUS_COLOR, font=self.font)
