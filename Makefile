@@ -43,6 +43,10 @@ reference: $(STAMP)
 docs: reference
 	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif
 	$(BIN)/flatland-ma record fruits_poisons_multi --steps 120 --seed 3 --out docs/images/fruits_poisons_multi.png
+	$(BIN)/flatland-ma record fruits_poisons_multi --sensors camera,lidar,proprioception --steps 60 --seed 3 \
+		--out docs/images/render_senses.png
+	SDL_VIDEODRIVER=dummy $(BIN)/flatland-ma play fruits_poisons_multi --seed 3 --fps 0 \
+		--keys "up*25 left*8 up*20 tab up*12" --screenshot docs/images/play_window.png
 	for s in $$($(BIN)/python -c "import flatland_ma; print(' '.join(flatland_ma.list_scenarios()))"); do \
 		$(BIN)/flatland-ma record $$s --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$$s.png || exit 1; \
 	done

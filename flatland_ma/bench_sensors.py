@@ -8,6 +8,9 @@ Smell reads a scent field that is searched again only when items are taken, come
 move (none do while the suite alone is timed); what one search of both channels costs is
 timed on its own, and the cost per agent-step in play is the reading plus that times the
 share of steps on which an item changes, over the number of agents.
+
+Touch also costs inside the physics step, where the world logs the pushes it reads: a
+row of its own times that.
 """
 
 from __future__ import annotations
@@ -29,6 +32,9 @@ SETUPS = (
         [{"type": "camera", "channels": ["rgb", "depth", "semantic"], "semantic": "onehot"}],
     ),
     ("camera + proprioception", [{"type": "camera"}, {"type": "proprioception"}]),
+    ("top-down, 32 x 32 rgb", [{"type": "topdown"}]),
+    ("top-down, 32 x 32 rgb, masked", [{"type": "topdown", "masked": True}]),
+    ("camera + touch, 8 sectors", [{"type": "camera"}, {"type": "touch"}]),
     ("smell, 2 channels (fruits, poisons)", [SMELL]),
     ("camera + smell", [{"type": "camera"}, SMELL]),
 )
@@ -53,6 +59,7 @@ def sensor_costs(steps: int = 5_000) -> list[SensorCost]:
             for i in range(n):
                 suite.observation(i)
         costs.append(SensorCost(label, 1e6 * (time.perf_counter() - start) / (steps * n)))
+    costs.append(touch_logging_cost(steps))
     assert env is not None
     costs.append(_smell_search(steps // 10))
     start = time.perf_counter()
@@ -75,6 +82,36 @@ def _smell_search(searches: int) -> SensorCost:
             field.search(c)
     micros = 1e6 * (time.perf_counter() - start) / searches
     return SensorCost("smell: one search of its field, when items change", micros)
+
+
+def touch_logging_cost(steps: int, block: int = 50) -> SensorCost:
+    """What logging pushes for touch sensors adds to the physics step, per agent-step.
+
+    Two copies of one world, with and without touch sensors, step alike (feeling changes
+    nothing in the physics), every agent driving ahead so that most of them press on a
+    wall, an obstacle or each other; blocks of steps alternate between the two so that
+    both share the machine's load. The difference is the cost (near zero, it may come
+    out slightly negative).
+    """
+    sensors = [{"type": "camera"}]
+    worlds, n = [], 1
+    for extra in ([], [{"type": "touch"}]):
+        env = flatland_ma.parallel_env(SCENARIO, agent={"sensors": sensors + extra})
+        env.reset(seed=0)
+        for _ in range(20):
+            env.step(dict.fromkeys(env.agents, env.action_index("forward")))
+        worlds.append(env.running.world)
+        n = env.num_agents
+    spent = [0.0, 0.0]
+    blocks = max(1, steps // block)
+    for _ in range(blocks):
+        for i, world in enumerate(worlds):
+            start = time.perf_counter()
+            for _ in range(block):
+                world.step()
+            spent[i] += time.perf_counter() - start
+    per_agent = 1e6 * (spent[1] - spent[0]) / (blocks * block * n)
+    return SensorCost("touch: logging pushes while all press", per_agent)
 
 
 def _warm(env):

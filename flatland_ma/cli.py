@@ -44,10 +44,44 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="a .gif or .mp4, or a .png for the last frame only (default: <scenario>.gif)",
     )
+    _world_options(record)
 
-    play = commands.add_parser("play", help="play with the keyboard (needs a display)")
+    play = commands.add_parser(
+        "play",
+        help="play with the keyboard (needs a display)",
+        description="Drive one agent with the keyboard; the others follow a policy. "
+        "Discrete: up forward, left/right rotate, space stay, q/e head, g/r grasp/release, "
+        "z/x arm. Continuous: up/down, a/d and left/right move, the same keys for parts. "
+        "Tab: next agent. Esc or closing the window: quit. The world advances while a key "
+        "is held; each episode's score is appended to --scores.",
+    )
     play.add_argument("scenario", nargs="?", default="fruits_poisons")
-    play.add_argument("--seed", type=int, default=None)
+    play.add_argument(
+        "--seed", type=int, default=None, help="the first episode's (default: random)"
+    )
+    play.add_argument(
+        "--others",
+        choices=["greedy", "random", "planner", "carrier", "idle"],
+        default="greedy",
+        help="the policy of the agents you do not drive",
+    )
+    play.add_argument("--episodes", type=int, default=1)
+    play.add_argument(
+        "--scores",
+        default="play_scores.csv",
+        help="CSV that each episode's score is appended to (time, scenario, seed, agent, steps, "
+        "score)",
+    )
+    play.add_argument("--fps", type=float, default=30.0, help="frames (and steps) a second")
+    play.add_argument(
+        "--keys",
+        default=None,
+        metavar="SCRIPT",
+        help="keys to press instead of the keyboard, e.g. 'up*20 left*5 tab up*10' (name*N "
+        "holds a key N frames, a+b holds two); the game ends with the script",
+    )
+    play.add_argument("--screenshot", default=None, help="a PNG of the window at the end")
+    _world_options(play)
 
     bench = commands.add_parser("bench", help="steps per second beside bare space.step")
     bench.add_argument("--steps", type=int, default=20_000)
@@ -68,6 +102,26 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # e.g. ``flatland-ma list | head``: the reader left early
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+
+
+def _world_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--agents", type=int, default=None, help="number of agents (n_agents)")
+    parser.add_argument(
+        "--sensors",
+        default=None,
+        metavar="TYPES",
+        help="each agent's sensors, by type with their defaults, e.g. camera,lidar,proprioception",
+    )
+
+
+def _overrides(args) -> dict:
+    """The scenario keys ``--agents`` and ``--sensors`` set."""
+    overrides: dict = {}
+    if args.agents is not None:
+        overrides["n_agents"] = args.agents
+    if args.sensors:
+        overrides["agent"] = {"sensors": [{"type": t} for t in args.sensors.split(",") if t]}
+    return overrides
 
 
 def _list(args) -> int:
@@ -133,17 +187,23 @@ def _record(args) -> int:
     except ValueError as err:
         print(f"flatland-ma record: {err}", file=sys.stderr)
         return 2
-    written = _write_recording(args.scenario, args.policy, args.steps, args.every, args.seed, out)
+    try:
+        written = _write_recording(
+            args.scenario, args.policy, args.steps, args.every, args.seed, out, _overrides(args)
+        )
+    except ValueError as err:  # a bad override, or a policy the agents cannot follow
+        print(f"flatland-ma record: {err}", file=sys.stderr)
+        return 2
     print(f"wrote {written}")
     return 0
 
 
-def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
+def _write_recording(scenario, policy, steps, every, seed, out: Path, overrides=None) -> Path:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.policies import CarrierPolicy, GreedyForager, PlannerPolicy, RandomPolicy
     from flatland_ma.render.video import save_gif, save_mp4, save_png
 
-    env = FlatlandParallelEnv(scenario, render_mode="rgb_array")
+    env = FlatlandParallelEnv(scenario, render_mode="rgb_array", **(overrides or {}))
     observations, _ = env.reset(seed=seed)
     makers = {
         "greedy": lambda a: GreedyForager(env.spec),
@@ -177,35 +237,36 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path) -> Path:
 
 
 def _play(args) -> int:
-    from flatland_ma.envs.parallel import FlatlandParallelEnv
+    from flatland_ma.play import missing_display
 
-    if not os.environ.get("DISPLAY") and os.environ.get("SDL_VIDEODRIVER") != "dummy":
-        print("play needs a display (or SDL_VIDEODRIVER=dummy for a headless run)")
-    import pygame
+    problem = missing_display()
+    if problem is not None:  # before pygame or the world: nothing to wait for
+        print(problem, file=sys.stderr)
+        return 2
+    from flatland_ma.play import play
 
-    env = FlatlandParallelEnv(args.scenario, render_mode="human")
-    if env.spec.agent.actions != "discrete":
-        print("play drives discrete bodies; this scenario is continuous")
-        return 1
-    print("arrows: up = forward, left / right = rotate; close the window to stop")
-    env.reset(seed=args.seed)
-    env.render()
-    keys = {pygame.K_UP: 0, pygame.K_LEFT: 1, pygame.K_RIGHT: 2}
-    total = 0.0
-    renderer = env._renderer
-    assert renderer is not None, "a human env has its renderer after render()"
-    while env.agents and not renderer.closed_by_user:
-        pressed = pygame.key.get_pressed()
-        action = next((a for key, a in keys.items() if pressed[key]), None)
-        if action is None:
-            env.render()
-            continue
-        actions = {a: (action if a == "agent_0" else 0) for a in env.agents}
-        _, rewards, _, _, _ = env.step(actions)
-        total += rewards.get("agent_0", 0.0)
-        env.render()
-    env.close()
-    print(f"score: {total:g}")
+    try:
+        session = play(
+            args.scenario,
+            seed=args.seed,
+            others=args.others,
+            episodes=args.episodes,
+            scores=args.scores,
+            fps=args.fps,
+            script=args.keys,
+            screenshot=args.screenshot,
+            overrides=_overrides(args),
+        )
+    except ValueError as err:  # a bad override, a bad key script, a policy that cannot run
+        print(f"flatland-ma play: {err}", file=sys.stderr)
+        return 2
+    for row in session.finished:
+        seed, agent, score, steps = (row[k] for k in ("seed", "agent", "score", "steps"))
+        print(f"episode seed {seed}: {agent} scored {score} in {steps} steps")
+    if session.finished and args.scores:
+        print(f"scores appended to {args.scores}")
+    if session.stopped and session.tallies:
+        print("left before the episode ended: its score is not written")
     return 0
 
 

@@ -21,9 +21,15 @@ def test_parallel_api(scenario):
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_aec_api(scenario):
+    env = flatland_ma.env(scenario)
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # the checker's warnings are failures here
-        api_test(flatland_ma.env(scenario), num_cycles=100)
+        if isinstance(env.observation_space(env.possible_agents[0]), gymnasium.spaces.Dict):
+            # but these two: the checker says them of every Dict observation (its own
+            # environments with one are listed by name), and several sensors give one.
+            warnings.filterwarnings("ignore", "Observation is not a NumPy array")
+            warnings.filterwarnings("ignore", "Observation space for each agent probably")
+        api_test(env, num_cycles=100)
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)

@@ -129,3 +129,25 @@ def test_shipped_agents_wear_colours_nothing_else_in_their_world_has(scenario):
             world_colours |= {tuple(np.round(c, 4)) for c in colours}
     for i, body in enumerate(env.episode.bodies):
         assert tuple(np.round(body.color, 4)) not in world_colours, (scenario, i, body.color)
+
+
+@pytest.mark.parametrize("decay", [None, 40.0])
+def test_exponential_falloff_fades_colour_by_exp_of_distance_over_decay(decay):
+    """Agent at the room's centre heading east: the two rays, 1/4 degree either side of
+    the heading, meet the wall's face (x = 300) at 150 / cos(1/4 degree), and their colour
+    is the wall's times exp(-d / decay), decay a third of the range when not given."""
+    camera = {"falloff": "exponential", "rays": 2, "fov": 1.0}
+    if decay is not None:
+        camera["decay"] = decay
+    env = flatland_ma.parallel_env(
+        "fruits_poisons", obstacles=[], items=[], agent={"camera": camera}
+    )
+    env.reset(seed=0)
+    place(env, 0, 150.0, 150.0, 0.0)
+    obs = observe(env)["agent_0"]
+    distance = env.episode.sensors.distance[:2]
+    scale = decay if decay is not None else env.spec.agent.camera.range / 3.0
+    expected = np.outer(np.exp(-distance / scale), env.spec.arena.wall.color)
+    np.testing.assert_allclose(obs[:, :3], expected, rtol=1e-5)
+    np.testing.assert_allclose(distance, 150.0 / math.cos(math.radians(0.25)), rtol=1e-9)
+    np.testing.assert_allclose(obs[:, 3], distance / env.spec.agent.camera.range, rtol=1e-5)

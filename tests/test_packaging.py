@@ -43,6 +43,14 @@ def test_the_wheel_holds_every_scenario_file_as_package_data(wheel):
     assert not [name for name in names if name.startswith("scenarios/")]
 
 
+def test_the_wheel_holds_every_module_of_the_package(wheel):
+    names = set(zipfile.ZipFile(wheel).namelist())
+    modules = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "flatland_ma").rglob("*.py"))
+    assert "flatland_ma/play/keys.py" in modules
+    missing = [name for name in modules if name not in names]
+    assert missing == [], f"not in {wheel.name} (list its package in pyproject.toml): {missing}"
+
+
 def test_an_install_from_the_wheel_lists_and_loads_the_scenarios(wheel, tmp_path):
     site = tmp_path / "site"
     command = [sys.executable, "-m", "pip", "install", "--no-deps", "--quiet"]

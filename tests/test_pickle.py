@@ -76,3 +76,18 @@ def test_render_state_is_dropped_and_rebuilt():
     copy = pickle.loads(pickle.dumps(env))
     assert copy._renderer is None
     np.testing.assert_array_equal(copy.render(), frame)
+
+
+def test_a_copy_with_noisy_sensors_continues_exactly():
+    noisy = {"sensors": [{"type": "camera", "noise": {"gaussian": 0.1, "dropout": 0.1}}]}
+    env = flatland_ma.parallel_env("fruits_poisons_multi", agent=noisy)
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step({a: 0 for a in env.agents})
+    copy = pickle.loads(pickle.dumps(env))
+    assert copy.np_random.bit_generator.state == env.np_random.bit_generator.state
+    for _ in range(5):
+        actions = {a: 1 for a in env.agents}
+        ours, theirs = env.step(actions)[0], copy.step(actions)[0]
+        for agent in ours:
+            np.testing.assert_array_equal(ours[agent], theirs[agent])

@@ -76,6 +76,9 @@ class Grasper(Part, kind="grasper"):
     def half_width(self) -> float:
         return self.radius
 
+    def own_shapes(self) -> tuple[pymunk.Shape, ...]:
+        return (self.shape,)
+
     def slip(self) -> float:
         """How far the held object has slipped from where it was grasped."""
         assert self.joint is not None and self.held is not None, "it holds nothing"

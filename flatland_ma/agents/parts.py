@@ -86,6 +86,11 @@ class Part(Kinded, ABC):
     def half_width(self) -> float:
         """Half its thickness: how far into a wall it may go before crossing it."""
 
+    def own_shapes(self) -> tuple[pymunk.Shape, ...]:
+        """The shapes that are this part's own, once built (a touch sensor feels each
+        part on them); none by default."""
+        return ()
+
 
 @dataclass(eq=False)
 class Link(Entity):
@@ -134,6 +139,9 @@ class Jointed(Part):
     def command(self, values, angles: dict) -> None:
         (value,) = values
         self.link.base.set_rate(self.link, 0.0 if value is None else value, angles)
+
+    def own_shapes(self) -> tuple[pymunk.Shape, ...]:
+        return self.link.shapes[:1]  # a grasper adds its disc to the tip's link after it
 
 
 class Head(Jointed, kind="head"):

@@ -285,7 +285,7 @@ class FlatlandParallelEnv(ParallelEnv):
         from flatland_ma.render.topdown import Renderer
 
         if self._renderer is None:
-            self._renderer = Renderer(self.spec)
+            self._renderer = Renderer(self.spec, self._sensors)
         self.enter()
         try:
             frame = self._renderer.frame(self)
@@ -327,8 +327,14 @@ class FlatlandParallelEnv(ParallelEnv):
         self._np_random.bit_generator.state = state["reset_state"]
         self._reset_state = state["reset_state"]
         self._start_episode()
+        # Read the observations the original handed out, in its order: sensor noise draws
+        # from the generator, so respawns after it draw the same numbers as they did.
+        sensors = self.running.sensors
+        for i in range(len(self.possible_agents)):
+            sensors.observation(i)
         for checked in state["log"]:
-            self._advance(checked)
+            for i in self._advance(checked)[0]:
+                sensors.observation(i)
 
 
 def with_episode_length(overrides: dict, max_cycles: int) -> dict:

@@ -48,7 +48,7 @@ class GreedyForager:
         found = [
             k
             for k, s in enumerate(spec.agent.sensor_specs)
-            if isinstance(s, CameraSpec) and s.channels == ("rgb", "depth")
+            if isinstance(s, CameraSpec) and {"rgb", "depth"} <= set(s.channels)
         ]
         if not found:
             raise ValueError(
@@ -60,6 +60,12 @@ class GreedyForager:
         camera = make_sensors(spec.agent)[k]
         self.key = camera.name if len(spec.agent.sensor_specs) > 1 else None
         """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
+        widths = {"rgb": 3, "depth": 1, "semantic": 6 if camera_spec.semantic == "onehot" else 1}
+        starts = dict(
+            zip(camera_spec.channels, np.cumsum([0] + [widths[c] for c in camera_spec.channels]))
+        )
+        self.columns = [starts["rgb"], starts["rgb"] + 1, starts["rgb"] + 2, starts["depth"]]
+        """Where red, green, blue and depth are among the camera's channels."""
         self.angles = camera.angles
         self.half_fov = camera.half_fov
         self.ux, self.uy = np.cos(self.angles), np.sin(self.angles)
@@ -104,11 +110,12 @@ class GreedyForager:
         self._turns: list[float] = []
 
     def act(self, observation):
-        """The action for one observation: the camera's image (rays, 4), or a ``Dict``
-        holding it."""
+        """The action for one observation: the camera's image (rays, channels), or a
+        ``Dict`` holding it."""
         if self.key is not None:
             observation = observation[self.key]
-        forward, turn = self._decide(np.asarray(observation, np.float64))
+        image = np.asarray(observation, np.float64)[:, self.columns]
+        forward, turn = self._decide(image)
         self._last = (forward, turn)
         self._turns = self._turns[-DITHER_TURNS:] + [np.sign(turn)]
         return self.motion.action(forward, turn)

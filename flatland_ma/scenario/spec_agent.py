@@ -70,8 +70,12 @@ class CameraSpec(SensorBaseSpec):
     """Field of view in degrees, centred on the heading."""
     range: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 300.0
     """Farthest distance a ray sees; depth is normalised by it."""
-    falloff: Literal["linear", "none"] = "linear"
-    """How colour intensity falls with distance: ``linear`` is ``1 - d / range``."""
+    falloff: Literal["linear", "exponential", "none"] = "linear"
+    """How colour intensity falls with distance ``d``: ``linear`` is ``1 - d / range``,
+    ``exponential`` is ``exp(-d / decay)``, ``none`` keeps full colour at any distance."""
+    decay: Annotated[float, Field(strict=True, gt=0, le=2 * MAX_ARENA_SIDE)] | None = None
+    """For ``exponential`` falloff: the distance over which intensity falls to 1/e (about
+    37%); none: a third of ``range``."""
     mount: Literal["base", "head"] = "base"
     """Where the camera sits: on the base (it looks where the agent heads) or on the head
     (it looks where the head turns; the agent needs a ``head``)."""
@@ -116,6 +120,72 @@ class ProprioceptionSpec(SensorBaseSpec):
         return "base"
 
 
+class TopdownSpec(SensorBaseSpec):
+    """A top-down image of the square around the agent, turned with it: the heading points
+    up and the agent's left is the image's left. Walls, doors, obstacles, items and
+    agents (itself included) are drawn filled, in the colours the cameras see (a texture
+    shows its first colour). The observation is ``(size, size, width)`` float32, channels
+    last, in [0, 1] (the semantic id in [0, 5])."""
+
+    type: Literal["topdown"]
+    """Selects this sensor."""
+    size: Annotated[int, Field(strict=True, ge=4, le=256)] = 32
+    """Pixels per side of the image."""
+    extent: Annotated[float, Field(strict=True, ge=1, le=2 * MAX_ARENA_SIDE)] = 160.0
+    """World units the image covers per side."""
+    ahead: Annotated[float, Field(strict=True, ge=0, le=0.5, allow_inf_nan=False)] = 0.0
+    """How far ahead of the mount the image's centre lies, as a fraction of ``extent``:
+    0 centres the agent, 0.5 puts it on the bottom edge."""
+    channels: Annotated[
+        tuple[Literal["rgb", "semantic", "visibility"], ...], Field(min_length=1, max_length=3)
+    ] = ("rgb",)
+    """What each pixel gives, in this order: ``rgb`` (3 numbers, the colour of what lies
+    there, black for bare floor), ``semantic`` (the kind, as for the camera),
+    ``visibility`` (1 where the agent sees the pixel, else 0)."""
+    semantic: Literal["id", "onehot"] = "id"
+    """The semantic channel as the kind's id (one number), or one-hot (six)."""
+    masked: Annotated[bool, Field(strict=True)] = False
+    """Blank (0 in every channel but ``visibility``) the pixels the agent cannot see:
+    behind a wall, a door, an obstacle or another agent as seen from the mount's centre
+    (what it faces shows whole), or outside ``fov``."""
+    fov: Annotated[float, Field(strict=True, gt=0, le=360, allow_inf_nan=False)] = 360.0
+    """Field of view in degrees, centred on the heading, for ``masked`` and
+    ``visibility``."""
+    mount: Literal["base", "head"] = "base"
+    """Where it sits: on the base, or on the head (it turns with the head)."""
+
+    @model_validator(mode="after")
+    def _distinct_channels(self):
+        if len(set(self.channels)) < len(self.channels):
+            raise ValueError("each channel may be given once")
+        return self
+
+
+class TouchSpec(SensorBaseSpec):
+    """Pressure on the body: a ring of contact sensors around the base, sector 0 straight
+    ahead and the rest counter-clockwise, then one entry per part (head, arm segments,
+    graspers); each the mean force of the last step's pushes (walls, obstacles, doors,
+    agents; not items) as a fraction of ``max_force``, capped at 1."""
+
+    type: Literal["touch"]
+    """Selects this sensor."""
+    sectors: Annotated[int, Field(strict=True, ge=1, le=360)] = 8
+    """Number of sectors around the base, each ``360 / sectors`` degrees wide."""
+    max_force: Annotated[
+        float, Field(strict=True, gt=0, le=100 * MAX_FORCE, allow_inf_nan=False)
+    ] = 20_000.0
+    """The force that reads 1 (stronger pushes read 1 too). An agent driving into
+    something it cannot move pushes with its motor's ``max_force`` (15000 by default:
+    0.75); a collision adds, for one step, its mass times its speed over the step's
+    duration."""
+    parts: Annotated[bool, Field(strict=True)] = True
+    """Also one entry per body part, after the sectors (nothing for a plain body)."""
+
+    @property
+    def mount(self) -> str:
+        return "base"
+
+
 class SmellSpec(SensorBaseSpec):
     """Two nostrils on the base, left and right of the heading, that smell items around
     walls: per nostril and channel, ``exp(-d / spread)`` in [0, 1], where ``d`` is the
@@ -154,7 +224,8 @@ class SmellSpec(SensorBaseSpec):
 
 
 SensorSpec = Annotated[
-    CameraSpec | LidarSpec | ProprioceptionSpec | SmellSpec, Field(discriminator="type")
+    CameraSpec | LidarSpec | ProprioceptionSpec | TopdownSpec | TouchSpec | SmellSpec,
+    Field(discriminator="type"),
 ]
 """Every sensor a file may declare, by its ``type``; a new sensor adds its spec here."""
 
@@ -260,8 +331,9 @@ class AgentSpec(Spec):
     this key is not used)."""
     sensors: Annotated[tuple[SensorSpec, ...], Field(max_length=16)] | None = None
     """Several sensors instead of the one ``camera``, each with its ``type`` (``camera``,
-    ``lidar``, ``proprioception``, ``smell``); their names (type, unless given) must
-    differ, and the observation is then a mapping from name to each sensor's."""
+    ``lidar``, ``proprioception``, ``topdown``, ``touch``, ``smell``); their names (type,
+    unless given) must differ, and the observation is then a mapping from name to each
+    sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()

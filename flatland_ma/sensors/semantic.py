@@ -10,6 +10,14 @@ SEMANTIC_KINDS = ("nothing", "wall", "door", "obstacle", "item", "agent")
 """The kinds, by id: ``nothing`` within range, walls (the arena's and every other),
 doors, obstacles (fixed or movable), items, and agents (bases and their parts)."""
 
+SEMANTIC_COLORS = np.array(
+    [(0, 0, 0), (150, 150, 150), (165, 105, 45), (70, 110, 210), (240, 200, 40), (215, 60, 160)],
+    np.uint8,
+)
+"""The colour each kind is drawn in, by id, in pictures of the semantic channel: one fixed
+colour per kind whatever the scenario's colours (black for nothing, grey walls, brown
+doors, blue obstacles, yellow items, magenta agents)."""
+
 
 def kind_of(entity: Entity) -> int:
     """The id in ``SEMANTIC_KINDS`` of an entity."""

@@ -17,6 +17,13 @@ Required: ``name``, ``mount``, ``space``, ``read``. Ray sensors also set ``angle
 ``view_range``, ``half_fov`` and ``falloff``; a sensor that depends on the agent's parts
 overrides ``from_spec``, and one that depends on the episode (its world, its navigation
 grid) overrides ``attach``.
+
+Optional: ``picture(reading)``, how the renderer's senses panel draws one reading, as a
+uint8 ``H x W x 3`` image (rows of a few pixels are drawn as strips, taller ones as an
+image, scaled to fit). Without it (it returns None) the panel draws the reading from its
+shape: a vector as bars or a heat strip, ``rays x channels`` as one strip per channel, an
+``H x W x C`` image as itself (C = 3) or its first channel in grey, all over the space's
+low..high. So a new sensor shows in pictures without any change to the renderer.
 """
 
 from __future__ import annotations
@@ -65,6 +72,11 @@ class Sensor(Kinded, ABC):
         """Called when each episode's suite is built, before the first ``read``: a sensor
         that needs the episode (``suite.world``, the navigation grid ``suite.grid``, its
         carrier ``suite.carriers[k]``) sets itself up here. Most sensors need nothing."""
+
+    def picture(self, reading: np.ndarray) -> np.ndarray | None:
+        """A uint8 ``H x W x 3`` picture of one reading for the renderer, or None (the
+        default) to let it draw the reading from its shape (see the module docstring)."""
+        return None
 
     @abstractmethod
     def read(self, results: Any, k: int) -> np.ndarray:

@@ -26,8 +26,9 @@ _KERNELS: dict[tuple, Callable] = {}
 """The compiled kernel for each layout of its arguments (in practice one per process)."""
 
 
-def compiled_kernel(args: tuple) -> Callable:
-    """The ray kernel compiled for these arguments' types.
+def compiled_kernel(args: tuple, function: Callable = kernel.observe) -> Callable:
+    """The ray kernel (or another compiled ``function``) compiled for these arguments'
+    types.
 
     numba types named tuples in Python on every call (several microseconds, a tenth of a
     small world's kernel time), and typing them once costs a millisecond, too much for
@@ -36,10 +37,11 @@ def compiled_kernel(args: tuple) -> Callable:
     only ever written in place, so the function stays valid for them.
     """
     arrays = [a for arg in args for a in (arg if isinstance(arg, tuple) else (arg,))]
-    key = tuple((a.dtype.str, a.ndim, a.flags.c_contiguous, a.flags.writeable) for a in arrays)
+    layout = tuple((a.dtype.str, a.ndim, a.flags.c_contiguous, a.flags.writeable) for a in arrays)
+    key = (function, layout)
     if key not in _KERNELS:
         signature = tuple(nb.typeof(a) for a in args)
-        _KERNELS[key] = kernel.observe.compile(signature)  # type: ignore[attr-defined]
+        _KERNELS[key] = function.compile(signature)  # type: ignore[attr-defined]
     return _KERNELS[key]
 
 
@@ -98,6 +100,9 @@ class Sensors:
         self._args = (geo.pose, geo.shapes, geo.grid, geo.looks, self.eyes, self.out)
         self._args += (Scratch.for_shapes(geo.shapes),)
         self._kernel = compiled_kernel(self._args)
+        self.readings: list[np.ndarray | None] = [None] * len(cameras)
+        """The reading of each sensor last handed out (noise included), for pictures:
+        the renderer draws these and never reads a sensor itself (no noise is drawn)."""
         for k, sensor in enumerate(cameras):
             sensor.attach(self, k)
 
@@ -123,4 +128,5 @@ class Sensors:
         reading = sensor.read(self, k)
         if sensor.noise is not None:
             reading = sensor.noise.apply(reading, sensor.space, self.rng)  # type: ignore[arg-type]
+        self.readings[k] = reading
         return reading

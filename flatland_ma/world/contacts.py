@@ -3,7 +3,7 @@
 The world fills it while it steps: pymunk's collision callbacks record touches (never
 act on them), and after the physics the world notes which agents' centres entered which
 zones, which named zones hold a live agent, and which tagged objects lie in zones that
-accept them. Rules read it; nobody else writes it.
+accept them. Rules read it; so do touch sensors (``pushes``); nobody else writes it.
 """
 
 from __future__ import annotations
@@ -27,6 +27,12 @@ class ContactLog:
     """Names of the zones that hold a live agent's centre now."""
     deliveries: list[tuple[Obstacle, Zone]] = field(default_factory=list)
     """(object, zone) for each tagged object whose centre lies in a zone accepting it."""
+    pushes: dict[int, list[tuple[float, float]]] = field(default_factory=dict)
+    """For each row of felt shapes (``World.feel``) pushed in the step: every push, each
+    physics substep, as (bearing, impulse). The bearing is the direction the push comes
+    from, in radians from the heading of the felt shape's body, counter-clockwise (the
+    contact normal, which for a disc points at the point touched); the impulse is the
+    normal impulse the contact solver applied. Empty unless something is felt."""
 
     def clear(self) -> None:
         self.items.clear()
@@ -35,3 +41,4 @@ class ContactLog:
         self.entered.clear()
         self.occupied.clear()
         self.deliveries.clear()
+        self.pushes.clear()

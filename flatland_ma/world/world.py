@@ -3,6 +3,8 @@ log, and which entities changed since the sensors last looked."""
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterable
 from typing import cast
 
 import pymunk
@@ -17,7 +19,8 @@ _AGENT_TYPES = (CollisionType.AGENT, CollisionType.GRASPER)
 class World:
     """Owns the ``pymunk.Space``. Collision callbacks only record contacts in ``log``;
     rules decide what they mean. Moving, hiding or showing a fixed entity goes through
-    the world, which notes it in ``changed`` for the sensors."""
+    the world, which notes it in ``changed`` for the sensors. Touch sensors have it
+    ``feel`` agents' shapes: it then logs every push on them too."""
 
     def __init__(
         self, size: tuple[float, float], dt: float, substeps: int = 1, iterations: int = 10
@@ -45,6 +48,9 @@ class World:
         self.grips: dict[pymunk.Shape, list[Entity]] = {}
         """For each grasper's shape, the graspable objects it touches, first touched first."""
         self._inside: list[list[bool]] = []
+        self._felt: dict[pymunk.Shape, tuple[int, pymunk.Body]] = {}
+        """Each felt shape's row in ``log.pushes`` (see ``feel``), and its body."""
+        self._felt_rows = 0
         on = self.space.on_collision
         on(CollisionType.AGENT, CollisionType.ITEM, begin=self._on_item)
         on(CollisionType.GRASPER, CollisionType.ITEM, begin=self._on_item)
@@ -124,6 +130,29 @@ class World:
         body.position, body.angle = (x, y), angle
         body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
         self.space.reindex_shapes_for_body(body)
+
+    def feel(self, shapes: Iterable[pymunk.Shape]) -> int:
+        """Record the pushes on these shapes of an agent (its base, or one part) from now
+        on, and return the row they are logged under: each step, ``log.pushes[row]``
+        lists every push on any of them, as (bearing, impulse).
+
+        The world registers the callback that records pushes only when the first shape
+        is felt, so a world without touch sensors does no work for them.
+        """
+        shapes = list(shapes)
+        for shape in shapes:
+            if shape.collision_type not in _AGENT_TYPES:
+                raise ValueError("only the shapes of agents (bases and parts) can be felt")
+        if self._felt_rows == 0:
+            for kind in _AGENT_TYPES:
+                self.space.on_collision(kind, None, post_solve=self._on_push)
+        row = self._felt_rows
+        self._felt_rows += 1
+        for shape in shapes:
+            body = shape.body
+            assert body is not None, "a shape to feel without its body"
+            self._felt[shape] = (row, body)
+        return row
 
     def take_changed(self) -> list[Entity]:
         """The entities changed since the last call, each once."""
@@ -229,6 +258,27 @@ class World:
         thing = self.entity_of_shape.get(other)
         if touching is not None and thing in touching:
             touching.remove(thing)
+
+    def _on_push(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
+        """Log a push on a felt shape. pymunk calls this handler (agents' types against
+        anything) with the agent's shape first, and once for each agent's shape of a
+        contact between two agents; the normal points from that shape into the other."""
+        felt = self._felt.get(arbiter.shapes[0])
+        if felt is None:
+            return
+        row, body = felt
+        nx, ny = arbiter.normal
+        jx, jy = arbiter.total_impulse  # on the first shape: against the normal
+        push = -(jx * nx + jy * ny)
+        if push <= 0.0:  # touching without pushing (sensors, like items, never come here)
+            return
+        bearing = math.atan2(ny, nx) - body.angle
+        logged = self.log.pushes
+        pushes = logged.get(row)
+        if pushes is None:
+            logged[row] = [(bearing, push)]
+        else:
+            pushes.append((bearing, push))
 
     def _on_agent_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:
         self._count_contact(arbiter, +1)

@@ -1,0 +1,186 @@
+"""Keys to actions, and where the keys come from (the keyboard, or a script).
+
+Keys are named as pygame names them (``up``, ``left``, ``space``, ``tab``, ``q``), so the
+map from keys to actions is a plain function of the agent's action names, testable
+without a window. The map, for every scenario:
+
+===============  ==============================  =====================================
+key              discrete action                 continuous entry
+===============  ==============================  =====================================
+up / down        forward / -                     longitudinal +1 / -1
+left / right     rotate_left / rotate_right      angular +1 / -1 (counter-clockwise +)
+a / d            -                               lateral +1 / -1 (to the left +)
+space            stay (if the body has parts)    wait (every entry 0)
+q / e            head_left / head_right          head +1 / -1
+g / r            grasp / release (first hand)    its grip +1 / -1
+z x, c v, b n,   each further control's two      each further control +1 / -1 (arm
+1 2, ... 9 0     macros (arm_left / arm_right)   joints, further hands), in order
+===============  ==============================  =====================================
+
+With a discrete body, several keys held at once give the first of their actions in
+action order. With a continuous one, the entries add up.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+BASE_DISCRETE = {"forward": "up", "rotate_left": "left", "rotate_right": "right", "stay": "space"}
+BASE_CONTINUOUS = {
+    "longitudinal": ("up", "down"),
+    "lateral": ("a", "d"),
+    "angular": ("left", "right"),
+}
+HEAD_KEYS = ("q", "e")
+GRIP_KEYS = ("g", "r")
+MORE_KEYS = (("z", "x"), ("c", "v"), ("b", "n"), ("1", "2"), ("3", "4"), ("5", "6"), ("7", "8"))
+MORE_KEYS += (("9", "0"),)
+"""Key pairs for the controls beyond the base, the head and the first hand, in order."""
+NEXT_AGENT, QUIT = "tab", "escape"
+
+
+@dataclass(frozen=True)
+class Binding:
+    """One key: the discrete action or continuous entry ``index`` it drives (-1: none,
+    a step that does nothing), by ``value`` (continuous only), and what it is called."""
+
+    key: str
+    index: int
+    value: float
+    label: str
+
+
+def _control_keys(controls: list[tuple[str, str, str]]) -> list[tuple[str, str]]:
+    """A key pair for each control (its name, plus macro, minus macro), as in the table."""
+    pairs, more, hands = [], iter(MORE_KEYS), 0
+    for name, plus, _ in controls:
+        if name == "head":
+            pairs.append(HEAD_KEYS)
+        elif (name.endswith("grip") or plus.endswith("grasp")) and hands == 0:
+            pairs.append(GRIP_KEYS)
+            hands += 1
+        else:
+            pairs.append(next(more, ("", "")))  # past the last pair: no keys
+    return pairs
+
+
+class KeyMap:
+    """Which held keys make which action, for one agent's action ``names``."""
+
+    def __init__(self, names: Iterable[str], discrete: bool):
+        self.names = tuple(names)
+        self.discrete = discrete
+        bindings: list[Binding] = []
+        if discrete:
+            for i, name in enumerate(self.names[:4]):
+                if name in BASE_DISCRETE:
+                    bindings.append(Binding(BASE_DISCRETE[name], i, 1.0, name))
+            macros = self.names[4:]  # after stay: each control's plus and minus macros
+            pairs = [(a.removesuffix("_left"), a, b) for a, b in zip(macros[::2], macros[1::2])]
+            for i, keys in enumerate(_control_keys(pairs)):
+                for key, offset in zip(keys, (0, 1)):
+                    if key:
+                        index = 4 + 2 * i + offset
+                        bindings.append(Binding(key, index, 1.0, self.names[index]))
+        else:
+            for i, name in enumerate(self.names[:3]):
+                plus, minus = BASE_CONTINUOUS[name]
+                bindings += [Binding(plus, i, 1.0, f"{name}+"), Binding(minus, i, -1.0, f"{name}-")]
+            bindings.append(Binding("space", -1, 0.0, "wait"))
+            controls = [(name, name, name) for name in self.names[3:]]
+            for i, (plus, minus) in enumerate(_control_keys(controls)):
+                name = self.names[3 + i]
+                if plus:
+                    bindings.append(Binding(plus, 3 + i, 1.0, f"{name}+"))
+                    bindings.append(Binding(minus, 3 + i, -1.0, f"{name}-"))
+        self.bindings = tuple(bindings)
+        self.keys = frozenset(b.key for b in bindings)
+        """Every key this map reads."""
+
+    def action(self, keys: Collection[str]):
+        """The action for these held keys, or None when none of them is an action key.
+        Discrete: the first bound action in action order. Continuous: the sum of the
+        held keys' entries, each in [-1, 1] (float32, like the action space)."""
+        held = [b for b in self.bindings if b.key in keys]
+        if not held:
+            return None
+        if self.discrete:
+            return min(b.index for b in held)
+        action = np.zeros(len(self.names), np.float32)
+        for b in held:
+            if b.index >= 0:
+                action[b.index] += b.value
+        return np.clip(action, -1.0, 1.0)
+
+    def help(self) -> list[str]:
+        """``key: what it does`` for every key, in action order."""
+        return [f"{b.key}: {b.label}" for b in self.bindings]
+
+
+@dataclass(frozen=True)
+class Keys:
+    """One frame's keyboard: keys that went down in it, keys held at its end, and
+    whether the window was asked to close."""
+
+    pressed: frozenset[str] = frozenset()
+    held: frozenset[str] = frozenset()
+    quit: bool = False
+
+    @property
+    def down(self) -> frozenset[str]:
+        """Keys held, or tapped within the frame (down and up again): each acts once."""
+        return self.pressed | self.held
+
+
+class ScriptedKeys:
+    """Keys from a script instead of the keyboard, for demos and checks: words separated
+    by spaces, each a key name, ``name*N`` (held for N frames) or ``a+b*N`` (held
+    together); ``wait*N`` is N frames with no key. After the last word: quit."""
+
+    def __init__(self, script: str):
+        self.frames: list[Keys] = []
+        for word in script.split():
+            keys, _, count = word.partition("*")
+            n = int(count) if count else 1
+            if n < 1:
+                raise ValueError(f"key script: {word!r} holds keys for fewer than one frame")
+            names = frozenset() if keys == "wait" else frozenset(keys.split("+"))
+            self.frames.append(Keys(pressed=names, held=names))
+            self.frames += [Keys(held=names)] * (n - 1)
+        self._next = 0
+
+    def poll(self, events: list) -> Keys:
+        """The script's next frame (the window's events are not read)."""
+        if self._next >= len(self.frames):
+            return Keys(quit=True)
+        self._next += 1
+        return self.frames[self._next - 1]
+
+
+class PygameKeys:
+    """Keys from pygame's events: a key is held from its key-down event to its key-up
+    (so events posted by a test drive it like a keyboard); losing the focus lets go of
+    every key."""
+
+    def __init__(self):
+        self.held: set[str] = set()
+
+    def poll(self, events: list) -> Keys:
+        import pygame
+
+        pressed, quit_ = set(), False
+        for event in events:
+            if event.type == pygame.KEYDOWN:
+                name = pygame.key.name(event.key)
+                pressed.add(name)
+                self.held.add(name)
+            elif event.type == pygame.KEYUP:
+                self.held.discard(pygame.key.name(event.key))
+            elif event.type == pygame.WINDOWFOCUSLOST:
+                self.held.clear()
+            elif event.type == pygame.QUIT:
+                quit_ = True
+        return Keys(frozenset(pressed), frozenset(self.held), quit_)
