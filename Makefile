@@ -53,6 +53,7 @@ docs: reference
 	for s in push_box fetch_object key_carry coop_carry tug_of_war; do \
 		$(BIN)/flatland-ma record $$s --policy carrier --steps 300 --every 3 --seed 1 --out docs/images/tasks/$$s.gif || exit 1; \
 	done
+	$(BIN)/flatland-ma record scent_rooms --policy sniffer --steps 300 --every 3 --seed 1 --out docs/images/tasks/scent_rooms.gif
 
 # The paper's experiment: DQN, A3C and DFP on fruits_poisons, SEEDS seeds of 250k steps
 # each, WORKERS seeds at a time (runs/ resumes where it stopped); A3C also with lr 1e-4,

@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     record.add_argument("scenario")
     record.add_argument(
-        "--policy", choices=["greedy", "planner", "carrier", "random"], default="greedy"
+        "--policy", choices=["greedy", "planner", "carrier", "sniffer", "random"], default="greedy"
     )
     record.add_argument("--steps", type=int, default=300)
     record.add_argument("--every", type=int, default=2, help="keep one frame in this many")
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     play.add_argument(
         "--others",
-        choices=["greedy", "random", "planner", "carrier", "idle"],
+        choices=["greedy", "random", "planner", "carrier", "sniffer", "idle"],
         default="greedy",
         help="the policy of the agents you do not drive",
     )
@@ -200,7 +200,13 @@ def _record(args) -> int:
 
 def _write_recording(scenario, policy, steps, every, seed, out: Path, overrides=None) -> Path:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
-    from flatland_ma.policies import CarrierPolicy, GreedyForager, PlannerPolicy, RandomPolicy
+    from flatland_ma.policies import (
+        CarrierPolicy,
+        GreedyForager,
+        PlannerPolicy,
+        RandomPolicy,
+        Sniffer,
+    )
     from flatland_ma.render.video import save_gif, save_mp4, save_png
 
     env = FlatlandParallelEnv(scenario, render_mode="rgb_array", **(overrides or {}))
@@ -209,6 +215,7 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path, overrides=
         "greedy": lambda a: GreedyForager(env.spec),
         "planner": lambda a: PlannerPolicy(env, a),
         "carrier": lambda a: CarrierPolicy(env, a),
+        "sniffer": lambda a: Sniffer(env.spec, seed=seed),
         "random": lambda a: RandomPolicy(env.action_space(a), seed=seed),
     }
     agents = {a: makers[policy](a) for a in env.possible_agents}

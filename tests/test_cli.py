@@ -113,7 +113,8 @@ def test_bench_reports_what_each_sensor_kind_costs():
 
     costs = sensor_costs(steps=50)
     assert [c.label for c in costs[: len(SETUPS)]] == [label for label, _ in SETUPS]
-    assert len(costs) == len(SETUPS) + 2  # and touch's logging, and the global state
-    assert costs[-2].label.startswith("touch:")  # a difference of two timings: any sign
+    assert len(costs) == len(SETUPS) + 3  # and touch's logging, a smell search, the global state
+    assert costs[-3].label.startswith("touch:")  # a difference of two timings: any sign
+    assert costs[-2].label.startswith("smell:") and costs[-2].micros_per_agent_step > 0
     assert all(c.micros_per_agent_step > 0 for c in costs[: len(SETUPS)] + costs[-1:])
     assert all(c.label in format_costs(costs) for c in costs)

@@ -13,6 +13,7 @@ from flatland_ma.policies import (
     GreedyForager,
     PlannerPolicy,
     RandomPolicy,
+    Sniffer,
     evaluate,
 )
 from flatland_ma.scenario.loader import scenario_dir, scenario_path
@@ -106,6 +107,7 @@ def test_the_solver_beats_random_play_by_far(scenario):
             "planner": lambda agent: PlannerPolicy(env, agent),
             "greedy": lambda agent: GreedyForager(env.spec),
             "carrier": lambda agent: CarrierPolicy(env, agent),
+            "sniffer": lambda agent: Sniffer(env.spec, seed=int(agent.split("_")[1])),
         }
         solved = evaluate(env, makers[reference.solver], episodes=episodes).mean
         baseline = evaluate(env, random, episodes=episodes).mean

@@ -21,7 +21,13 @@ from gymnasium import spaces
 from flatland_ma.agents.actuators import DiscreteAction
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.play.keys import NEXT_AGENT, QUIT, KeyMap, Keys
-from flatland_ma.policies import CarrierPolicy, GreedyForager, PlannerPolicy, RandomPolicy
+from flatland_ma.policies import (
+    CarrierPolicy,
+    GreedyForager,
+    PlannerPolicy,
+    RandomPolicy,
+    Sniffer,
+)
 
 SCORE_COLUMNS = ("time", "scenario", "seed", "agent", "steps", "score")
 """The columns of the scores file, one row per agent you drove in an episode."""
@@ -56,6 +62,7 @@ OTHERS: dict[str, Callable] = {
     "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
     "planner": lambda env, agent, seed: PlannerPolicy(env, agent),
     "carrier": lambda env, agent, seed: CarrierPolicy(env, agent),
+    "sniffer": lambda env, agent, seed: Sniffer(env.spec, seed=seed),
     "idle": lambda env, agent, seed: IdlePolicy(env, agent),
 }
 """The policies the agents you do not drive can follow, by name."""

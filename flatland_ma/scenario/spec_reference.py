@@ -16,11 +16,12 @@ class ReferenceSpec(Spec):
     (seeds 0, 1, ...) and its mean score per agent must reach ``min_score``, and beat
     random play's over the same seeds by at least 0.8 x ``min_score``."""
 
-    solver: Literal["greedy", "planner", "carrier", "carrier_vs_random"]
+    solver: Literal["greedy", "planner", "carrier", "carrier_vs_random", "sniffer"]
     """greedy: ``GreedyForager`` (sees only its camera). planner: ``PlannerPolicy``
     (search with full knowledge). carrier: ``CarrierPolicy`` (scripted grasping,
     pushing and carrying, with full knowledge). carrier_vs_random: the first team plays
-    ``CarrierPolicy`` against random play by the others; the score is the first team's."""
+    ``CarrierPolicy`` against random play by the others; the score is the first team's.
+    sniffer: ``Sniffer`` (follows its smell sensor, sees nothing else)."""
     min_score: Real
     """The least mean score per agent (the sum of its rewards in an episode) the solver
     must reach."""
