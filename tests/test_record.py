@@ -113,12 +113,14 @@ def test_the_gym_env_gives_frames_to_video_wrappers(tmp_path):
 def test_gymnasiums_record_video_writes_an_mp4(tmp_path):
     # RecordVideo writes through moviepy, which the render extra installs.
     env = gymnasium.make(gym_id("fruits_poisons"), render_mode="rgb_array", max_episode_steps=8)
-    env = gymnasium.wrappers.RecordVideo(env, str(tmp_path), episode_trigger=lambda e: True)
+    env = gymnasium.wrappers.RecordVideo(
+        env, str(tmp_path / "videos"), episode_trigger=lambda e: True
+    )
     env.reset(seed=0)
     done = False
     while not done:
         *_, terminated, truncated, _ = env.step(0)
         done = terminated or truncated
     env.close()
-    (video,) = tmp_path.glob("*.mp4")
+    (video,) = (tmp_path / "videos").glob("*.mp4")
     assert len(read_mp4(video)) >= 8
