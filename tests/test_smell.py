@@ -17,6 +17,8 @@ from flatland_ma.sensors.smell import Smell
 from flatland_ma.world.entities import Item
 
 SPREAD = 100.0
+HEAD_RADIUS = 4.0
+"""The default head's radius: nostrils on the head sit on its rim."""
 # A wall down from the top of the 300 x 300 room with a gap below it, or up from the
 # bottom with a gap above it: its box spans x 145..155, and its ends reach 5 beyond its
 # end points (half its thickness).
@@ -315,3 +317,46 @@ def test_the_sniffer_finds_food_behind_a_wall_where_random_play_does_not():
     assert sum(r > 0 for r in sniffer.returns) > sum(r > 0 for r in random.returns) + 2
     with pytest.raises(ValueError, match="has none"):
         Sniffer(flatland_ma.load_scenario("fruits_poisons"))
+
+
+def test_nostrils_on_the_head_turn_with_it():
+    """Food well north of an agent starting east-bound (within 30 of (150, 100)): with the
+    head straight the left nostril smells it more; with the head turned to its left limit
+    (90 degrees) the head faces the food, and each nostril, on the head's rim, smells what
+    the straight line from it gives."""
+    item = (150.0, 250.0)
+    env = flatland_ma.parallel_env(
+        "fruits_poisons",
+        obstacles=[],
+        items=[_food(item)],
+        agent={
+            "head": {},
+            "sensors": [{"type": "smell", "spread": SPREAD, "mount": "head"}],
+            "spawn": {"area": [120, 70, 180, 130], "heading": 0},
+        },
+    )
+
+    def expected():
+        head = _episode(env).bodies[0].links[0].body
+        x, y = head.position
+        nostrils = _nostrils(x, y, head.angle, reach=HEAD_RADIUS)
+        return [math.exp(-math.dist(n, item) / SPREAD) for n in nostrils]
+
+    straight = _array(env.reset(seed=0)[0]["agent_0"])
+    assert straight[:, 0] == pytest.approx(expected(), rel=1e-4)
+    assert straight[0, 0] > straight[1, 0] * 1.02
+    head_left = env.action_index("head_left")
+    for _ in range(60):
+        turned = _array(env.step({"agent_0": head_left})[0]["agent_0"])
+    episode = _episode(env)
+    turn = episode.bodies[0].links[0].body.angle - episode.bodies[0].body.angle
+    assert turn == pytest.approx(math.pi / 2, abs=0.05)
+    assert turned[:, 0] == pytest.approx(expected(), rel=1e-4)
+    assert turned[0, 0] == pytest.approx(turned[1, 0], rel=0.03)
+
+
+def test_a_smell_on_the_head_needs_a_head():
+    with pytest.raises(ScenarioError, match="head"):
+        flatland_ma.parallel_env(
+            "fruits_poisons", agent={"sensors": [{"type": "smell", "mount": "head"}]}
+        )

@@ -211,10 +211,9 @@ class SmellSpec(SensorBaseSpec):
     exact in the open and off by less than a cell per corner they turn around; finer cells
     cost more each time items change (and are coarsened to at most 500,000 cells over all
     channels)."""
-
-    @property
-    def mount(self) -> str:
-        return "base"
+    mount: Literal["base", "head"] = "base"
+    """Where the nostrils sit: on the base's rim, either side of its heading, or on the
+    head's rim, turning with it (the agent needs a ``head``)."""
 
     @model_validator(mode="after")
     def _distinct_sources(self):

@@ -14,8 +14,9 @@ from flatland_ma.sensors.sensor import Sensor
 
 
 class Smell(Sensor, kind="smell"):
-    """Two nostrils on the base, ``nostril_angle`` degrees to the left and to the right
-    of the heading, ``nostril_distance`` from the centre (None: on the rim). Each smells
+    """Two nostrils on the base (or the head: ``mount``), ``nostril_angle`` degrees to the
+    left and to the right of its heading, ``nostril_distance`` from its centre (None: on
+    its rim). Each smells
     each channel: one channel per item group in ``sources``, in that order, or one channel
     for every item (``sources`` None).
 
@@ -43,9 +44,10 @@ class Smell(Sensor, kind="smell"):
         nostril_distance: float | None = None,
         cell: float | None = None,
         name: str = "smell",
+        mount: str = "base",
     ):
         self.name = name
-        self.mount = "base"
+        self.mount = mount
         self.sources: tuple[str | None, ...] = tuple(sources) if sources else (None,)
         self.spread = float(spread)
         self.range = float(range)
