@@ -1,0 +1,302 @@
+"""Many worlds of one scenario in one process, stepped together.
+
+``BatchedParallelEnv`` presents every agent of every world as one slot, for learners that
+share one policy's parameters among agents: world ``w``'s agent ``j`` is slot
+``w * agents_per_world + j``. Observations come stacked along a leading slot axis (a
+``Dict`` observation as a dict of stacked arrays), and rewards, terminations and
+truncations as arrays of one entry per slot.
+
+``FlatlandVectorEnv`` is the Gymnasium ``VectorEnv`` of a single-agent scenario, one slot
+per world; ``gymnasium.make_vec("flatland_ma/FruitsPoisons-v0", num_envs=N)`` builds it
+(the ids name ``make_vector`` as their ``vector_entry_point``). It returns exactly what
+Gymnasium's ``SyncVectorEnv`` over the same envs returns, for the same seeds and actions.
+
+Both reset worlds in Gymnasium's ``NEXT_STEP`` mode: the step after the one in which a
+world's last agent finished resets that world (its actions are not used) and returns the
+first observation of its new episode, with reward 0 and neither termination nor
+truncation. A world reset this way continues its own generator, so world ``w`` of a
+batch reset with seed ``s`` plays exactly the episodes of a ``FlatlandParallelEnv`` reset
+with seed ``s + w`` and then reset without a seed each time its episode ends.
+
+Agents that finish while their world plays on leave it (as in the parallel env): from the
+next step their slot is inert, ``infos["active"]`` is False for it, its observation is
+zeros, its reward 0, and its action is not used; a learner drops those entries.
+
+The arrays returned are copies, unless ``copy=False``: then they are the env's own buffers,
+overwritten by the next ``step`` or ``reset``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium
+import numpy as np
+from gymnasium.vector import AutoresetMode
+from gymnasium.vector.utils import batch_space
+
+from flatland_ma.envs.parallel import FlatlandParallelEnv
+
+AUTORESET_MODE = AutoresetMode.NEXT_STEP
+
+
+def _buffer(space: gymnasium.Space, n: int):
+    """Zeros for ``n`` stacked values of ``space`` (a dict of them for a ``Dict``)."""
+    if isinstance(space, gymnasium.spaces.Dict):
+        return {key: _buffer(sub, n) for key, sub in space.spaces.items()}
+    assert space.shape is not None, f"{space} has no shape to stack"
+    return np.zeros((n, *space.shape), space.dtype)
+
+
+def _put(buffer, slot: int, value) -> None:
+    if isinstance(buffer, dict):
+        for key, sub in buffer.items():
+            sub[slot] = value[key]
+    else:
+        buffer[slot] = value
+
+
+def _clear(buffer, slot: int) -> None:
+    if isinstance(buffer, dict):
+        for sub in buffer.values():
+            sub[slot] = 0
+    else:
+        buffer[slot] = 0
+
+
+def _copied(buffer):
+    if isinstance(buffer, dict):
+        return {key: sub.copy() for key, sub in buffer.items()}
+    return buffer.copy()
+
+
+class BatchedParallelEnv:
+    """``num_worlds`` worlds of ``scenario`` (with ``overrides`` and ``max_cycles`` as
+    for ``FlatlandParallelEnv``), every agent of every world one slot (see the module's
+    docstring). Every agent must have the same spaces (one shared policy)."""
+
+    metadata = {"autoreset_mode": AUTORESET_MODE}
+
+    def __init__(
+        self,
+        scenario: Any = "fruits_poisons",
+        num_worlds: int = 1,
+        max_cycles: int | None = None,
+        copy: bool = True,
+        **overrides,
+    ):
+        if isinstance(num_worlds, bool) or not isinstance(num_worlds, int) or num_worlds < 1:
+            raise ValueError(f"num_worlds must be a positive integer, not {num_worlds!r}")
+        first = FlatlandParallelEnv(scenario, max_cycles=max_cycles, **overrides)
+        self.worlds = [first] + [_same(first) for _ in range(num_worlds - 1)]
+        self.spec = first.spec
+        self.num_worlds = num_worlds
+        self.agents_per_world = len(first.possible_agents)
+        self.num_slots = num_worlds * self.agents_per_world
+        self.copy = copy
+        agents = first.possible_agents
+        self.single_observation_space = first.observation_space(agents[0])
+        self.single_action_space = first.action_space(agents[0])
+        for agent in agents[1:]:
+            if str(first.observation_space(agent)) != str(self.single_observation_space) or (
+                first.action_space(agent) != self.single_action_space
+            ):
+                raise ValueError(
+                    f"{agent} has other spaces than {agents[0]}: one batch needs agents alike"
+                )
+        self.observation_space = batch_space(self.single_observation_space, self.num_slots)
+        self.action_space = batch_space(self.single_action_space, self.num_slots)
+        self._observations = _buffer(self.single_observation_space, self.num_slots)
+        self._rewards = np.zeros(self.num_slots, np.float64)
+        self._terminations = np.zeros(self.num_slots, bool)
+        self._truncations = np.zeros(self.num_slots, bool)
+        self._active = np.zeros(self.num_slots, bool)
+        self._counters: dict[str, np.ndarray] = {}
+        self._ended = [False] * num_worlds
+        """Worlds whose episode ended on the last step: the next step resets them."""
+
+    # -- the loop -----------------------------------------------------------------------
+
+    def reset(self, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``; None: from
+        fresh entropy)."""
+        seeds = _seeds(seed, self.num_worlds)
+        self._rewards[:] = 0.0
+        self._terminations[:] = False
+        self._truncations[:] = False
+        for w, env in enumerate(self.worlds):
+            self._restart(w, env, seeds[w])
+        return self._out(self._observations), self._infos()
+
+    def step(self, actions):
+        """One step of every world; ``actions[slot]`` for each slot (those of inert slots
+        and of worlds being reset are not used). Every action is checked before anything
+        moves: a bad one raises an error naming its world, agent, value and space."""
+        checked = self._check(actions)
+        m = self.agents_per_world
+        self._rewards[:] = 0.0
+        self._terminations[:] = False
+        self._truncations[:] = False
+        for w, env in enumerate(self.worlds):
+            if self._ended[w]:
+                self._restart(w, env, None)
+                continue
+            base = w * m
+            for j in range(m):  # agents gone before this step are inert from now
+                if self._active[base + j] and j not in env._live:
+                    self._active[base + j] = False
+                    _clear(self._observations, base + j)
+            env.enter()
+            try:
+                live, rewards, terminated, truncated = env._advance(checked[w])
+                sensors, task = env.running.sensors, env.running.task
+                for i in live:
+                    slot = base + i
+                    _put(self._observations, slot, sensors.observation(i))
+                    self._rewards[slot] = rewards[i]
+                    self._terminations[slot] = terminated[i]
+                    self._truncations[slot] = truncated
+                    self._count(slot, task.info(i))
+            finally:
+                env.leave()
+            self._ended[w] = not env.agents
+        observations = self._out(self._observations)
+        return (
+            observations,
+            self._out(self._rewards),
+            self._out(self._terminations),
+            self._out(self._truncations),
+            self._infos(),
+        )
+
+    def close(self) -> None:
+        for env in self.worlds:
+            env.close()
+
+    # -- inside -------------------------------------------------------------------------
+
+    def _restart(self, w: int, env: FlatlandParallelEnv, seed: int | None) -> None:
+        observations, infos = env.reset(seed=seed)
+        base = w * self.agents_per_world
+        for j, agent in enumerate(env.possible_agents):
+            _put(self._observations, base + j, observations[agent])
+            self._active[base + j] = True
+            self._count(base + j, infos[agent])
+        self._ended[w] = False
+
+    def _check(self, actions) -> list[list]:
+        """Each live agent's action, checked, world by world; nothing is changed."""
+        if any(env.episode is None for env in self.worlds):
+            raise RuntimeError("call reset() first")
+        if len(actions) != self.num_slots:
+            raise ValueError(
+                f"expected one action per slot ({self.num_slots}: {self.num_worlds} worlds x "
+                f"{self.agents_per_world} agents), got {len(actions)}"
+            )
+        m = self.agents_per_world
+        checked: list[list] = []
+        for w, env in enumerate(self.worlds):
+            own = []
+            if not self._ended[w]:
+                for i in env._live:
+                    agent = env.possible_agents[i]
+                    try:
+                        own.append(env.check_action(agent, actions[w * m + i]))
+                    except ValueError as err:
+                        raise ValueError(f"world {w}, slot {w * m + i}: {err}") from None
+            checked.append(own)
+        return checked
+
+    def _count(self, slot: int, info: dict) -> None:
+        for key, value in info.items():
+            if key not in self._counters:
+                whole = isinstance(value, int | np.integer) and not isinstance(value, bool)
+                dtype = np.int64 if whole else np.float64
+                self._counters[key] = np.zeros(self.num_slots, dtype)
+            self._counters[key][slot] = value
+
+    def _infos(self) -> dict:
+        infos = {key: self._out(values) for key, values in self._counters.items()}
+        infos["active"] = self._out(self._active)
+        return infos
+
+    def _out(self, buffer):
+        return _copied(buffer) if self.copy else buffer
+
+
+class FlatlandVectorEnv(gymnasium.vector.VectorEnv):
+    """The Gymnasium vector env of a single-agent scenario: ``num_envs`` worlds, one slot
+    each (see the module's docstring). ``infos`` follow Gymnasium's convention for vector
+    envs: per key an array over the envs, and under ``"_" + key`` which envs have it."""
+
+    metadata = {"autoreset_mode": AUTORESET_MODE, "render_modes": []}
+
+    def __init__(self, scenario: Any = "fruits_poisons", num_envs: int = 1, **kwargs):
+        self.batch = BatchedParallelEnv(scenario, num_worlds=num_envs, **kwargs)
+        if self.batch.agents_per_world != 1:
+            raise ValueError(
+                f"scenario {scenario!r} has {self.batch.agents_per_world} agents; "
+                "use flatland_ma.envs.vector.BatchedParallelEnv for several agents"
+            )
+        self.num_envs = num_envs
+        self.single_observation_space = self.batch.single_observation_space
+        self.single_action_space = self.batch.single_action_space
+        self.observation_space = self.batch.observation_space
+        self.action_space = self.batch.action_space
+        self.render_mode = None
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        observations, infos = self.batch.reset(seed=seed, options=options)
+        return observations, self._infos(infos)
+
+    def step(self, actions):
+        observations, rewards, terminations, truncations, infos = self.batch.step(actions)
+        return observations, rewards, terminations, truncations, self._infos(infos)
+
+    def close_extras(self, **kwargs) -> None:
+        self.batch.close()
+
+    def _infos(self, infos: dict) -> dict:
+        infos.pop("active")  # one agent per world: always acting
+        out: dict = {}
+        for key, values in infos.items():
+            out[key] = values
+            out[f"_{key}"] = np.ones(self.num_envs, bool)
+        return out
+
+
+def make_vector(
+    num_envs: int = 1,
+    scenario: str = "fruits_poisons",
+    time_limit: bool = False,
+    max_episode_steps: int | None = None,
+    **kwargs,
+) -> FlatlandVectorEnv:
+    """The ``vector_entry_point`` of the Gymnasium ids: ``max_episode_steps`` (the id's
+    unless ``gymnasium.make_vec`` is given one) is where every world truncates, as
+    ``gymnasium.make``'s ``TimeLimit`` does for one env."""
+    del time_limit  # the single env's switch; here the episode length is max_episode_steps
+    if max_episode_steps is not None and max_episode_steps > 0:
+        kwargs["max_cycles"] = max_episode_steps
+    return FlatlandVectorEnv(scenario, num_envs=num_envs, **kwargs)
+
+
+def _same(first: FlatlandParallelEnv) -> FlatlandParallelEnv:
+    """Another env of ``first``'s checked spec, without loading and checking it again."""
+    env = FlatlandParallelEnv.__new__(FlatlandParallelEnv)
+    env._setup(first.spec, first.render_mode)
+    env.step_limit = first.step_limit
+    return env
+
+
+def _seeds(seed: int | list[int | None] | None, n: int) -> list[int | None]:
+    if seed is None:
+        return [None] * n
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer | list | tuple):
+        raise TypeError(f"seed must be an integer or a list of one per world, not {seed!r}")
+    if isinstance(seed, int | np.integer):
+        return [int(seed) + w for w in range(n)]
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"expected {n} seeds, one per world, got {len(seeds)}")
+    return seeds
