@@ -69,6 +69,30 @@ def bench_parallel(scenario: str, steps: int, seed: int = 0) -> BenchResult:
     return BenchResult(f"parallel {scenario}", len(env.possible_agents), rate, bare)
 
 
+BATCH_WORLDS = 16
+"""Worlds in the batched env's rows of the table."""
+
+
+def bench_batched(scenario: str, steps: int, seed: int = 0) -> BenchResult:
+    """World steps per second of ``BatchedParallelEnv`` with ``BATCH_WORLDS`` worlds
+    (about ``steps`` world steps in all; worlds reset themselves)."""
+    from flatland_ma.envs.vector import BatchedParallelEnv
+
+    batch = BatchedParallelEnv(scenario, num_worlds=BATCH_WORLDS, copy=False)
+    batch.reset(seed=seed)
+    batch.action_space.seed(seed)
+    rounds = max(1, steps // BATCH_WORLDS)
+    actions = [batch.action_space.sample() for _ in range(rounds)]
+    start = time.perf_counter()
+    for action in actions:
+        batch.step(action)
+    rate = rounds * BATCH_WORLDS / (time.perf_counter() - start)
+    bare = bare_space_rate(batch.worlds[0], steps)
+    batch.close()
+    label = f"batched {scenario} x {BATCH_WORLDS} worlds"
+    return BenchResult(label, batch.agents_per_world, rate, bare)
+
+
 def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:
     """Env-step equivalents per second of ``space.step`` alone, on the env's own world,
     after a reset and a few steps so that the bodies move and touch as they do in play."""
@@ -96,6 +120,8 @@ BENCHED = (
     (bench_gym, LARGEST),
     (bench_parallel, "forage_rooms_multi"),
     (bench_parallel, WITH_PARTS),
+    (bench_batched, "fruits_poisons"),
+    (bench_batched, "fruits_poisons_multi"),
 )
 """What ``flatland-ma bench`` measures, in order."""
 
@@ -118,7 +144,7 @@ def format_table(results: list[BenchResult]) -> str:
     lines.append(
         "bare space.step/s: environment-step equivalents (substeps x space.step) per second "
         "on the same world. Rates include resets (a new layout each episode where the "
-        "scenario asks for one)."
+        "scenario asks for one). Batched rows: env steps are world steps, all worlds together."
     )
     lines += [f"{text}: {ratio:.2f}x slower" for text, ratio in comparisons(results)]
     return "\n".join(lines)

@@ -9,6 +9,7 @@ import flatland_ma
 from flatland_ma.bench import (
     BENCHED,
     BenchResult,
+    bench_batched,
     bench_gym,
     bench_parallel,
     comparisons,
@@ -45,7 +46,8 @@ def test_demo_prints_scores_for_both_policies(tmp_path, capsys):
 
 def test_bench_measures_env_and_bare_physics():
     results = [bench_gym("fruits_poisons", 300), bench_parallel("fruits_poisons_multi", 300)]
-    assert results[0].agents == 1 and results[1].agents == 4
+    results.append(bench_batched("fruits_poisons_multi", 64))
+    assert results[0].agents == 1 and results[1].agents == 4 and results[2].agents == 4
     for r in results:
         assert r.env_steps_per_s > 0 and r.bare_steps_per_s > r.env_steps_per_s
     table = format_table(results)
