@@ -85,6 +85,7 @@ def main(argv: list[str] | None = None) -> int:
 
     bench = commands.add_parser("bench", help="steps per second beside bare space.step")
     bench.add_argument("--steps", type=int, default=20_000)
+    bench.add_argument("--json", action="store_true", help="print the figures as JSON")
 
     args = parser.parse_args(argv)
     command = {
@@ -281,9 +282,27 @@ def _bench(args) -> int:
     from flatland_ma.bench import format_table, run
     from flatland_ma.bench_sensors import format_costs, sensor_costs
 
-    print(format_table(run(args.steps)))
+    results = run(args.steps)
+    costs = sensor_costs(max(100, args.steps // 4))
+    if args.json:
+        import json
+
+        envs = [
+            {
+                "environment": r.label,
+                "agents": r.agents,
+                "env_steps_per_s": r.env_steps_per_s,
+                "agent_steps_per_s": r.agent_steps_per_s,
+                "bare_space_step_per_s": r.bare_steps_per_s,
+            }
+            for r in results
+        ]
+        sensing = [{"setup": c.label, "us_per_agent_step": c.micros_per_agent_step} for c in costs]
+        print(json.dumps({"steps": args.steps, "environments": envs, "sensing": sensing}, indent=1))
+        return 0
+    print(format_table(results))
     print()
-    print(format_costs(sensor_costs(max(100, args.steps // 4))))
+    print(format_costs(costs))
     return 0
 
 

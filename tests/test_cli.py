@@ -120,3 +120,16 @@ def test_bench_reports_what_each_sensor_kind_costs():
     assert costs[-2].label.startswith("smell:") and costs[-2].micros_per_agent_step > 0
     assert all(c.micros_per_agent_step > 0 for c in costs[: len(SETUPS)] + costs[-1:])
     assert all(c.label in format_costs(costs) for c in costs)
+
+
+def test_bench_prints_json_for_machines(capsys):
+    import json
+
+    assert main(["bench", "--steps", "160", "--json"]) == 0
+    figures = json.loads(capsys.readouterr().out)
+    labels = [row["environment"] for row in figures["environments"]]
+    assert len(labels) == len(BENCHED) and any(label.startswith("batched") for label in labels)
+    for row in figures["environments"]:
+        assert row["agent_steps_per_s"] == row["env_steps_per_s"] * row["agents"] > 0
+        assert row["bare_space_step_per_s"] > 0
+    assert figures["sensing"][0]["setup"].startswith("camera")
