@@ -34,7 +34,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     record.add_argument("scenario")
     record.add_argument(
-        "--policy", choices=["greedy", "planner", "carrier", "sniffer", "random"], default="greedy"
+        "--policy",
+        default="greedy",
+        metavar="POLICY",
+        help="greedy, planner, carrier, sniffer, random, or the path of a checkpoint saved by "
+        "the baselines (e.g. runs/ppo/fruits_poisons/seed_0.pt) (default: greedy)",
     )
     record.add_argument("--steps", type=int, default=300)
     record.add_argument("--every", type=int, default=2, help="keep one frame in this many")
@@ -61,9 +65,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     play.add_argument(
         "--others",
-        choices=["greedy", "random", "planner", "carrier", "sniffer", "idle"],
         default="greedy",
-        help="the policy of the agents you do not drive",
+        metavar="POLICY",
+        help="the policy of the agents you do not drive: greedy, random, planner, carrier, "
+        "sniffer, idle, or a checkpoint file saved by the baselines (default: greedy)",
     )
     play.add_argument("--episodes", type=int, default=1)
     play.add_argument(
@@ -201,25 +206,12 @@ def _record(args) -> int:
 
 def _write_recording(scenario, policy, steps, every, seed, out: Path, overrides=None) -> Path:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
-    from flatland_ma.policies import (
-        CarrierPolicy,
-        GreedyForager,
-        PlannerPolicy,
-        RandomPolicy,
-        Sniffer,
-    )
+    from flatland_ma.policies.named import make_policy
     from flatland_ma.render.video import save_gif, save_mp4, save_png
 
     env = FlatlandParallelEnv(scenario, render_mode="rgb_array", **(overrides or {}))
     observations, _ = env.reset(seed=seed)
-    makers = {
-        "greedy": lambda a: GreedyForager(env.spec),
-        "planner": lambda a: PlannerPolicy(env, a),
-        "carrier": lambda a: CarrierPolicy(env, a),
-        "sniffer": lambda a: Sniffer(env.spec, seed=seed),
-        "random": lambda a: RandomPolicy(env.action_space(a), seed=seed),
-    }
-    agents = {a: makers[policy](a) for a in env.possible_agents}
+    agents = {a: make_policy(policy, env, a, seed) for a in env.possible_agents}
     video = out.suffix.lower() != ".png"
 
     def grab() -> np.ndarray:

@@ -20,7 +20,11 @@ pytest.importorskip("supersuit")
 pytest.importorskip("tyro")
 
 ROOT = Path(__file__).resolve().parent.parent
-COUNTERS = {"fruits_poisons": ["score", "fruits", "poisons"], "key_door": ["score", "key", "goal"]}
+COUNTERS = {
+    "fruits_poisons": ["score", "fruits", "poisons"],
+    "key_door": ["score", "key", "goal"],
+    "goals": ["score", "fruits", "goals"],
+}
 """The counters each scenario's infos hold at reset, in order (key_door's ``keys`` tuple is
 not one)."""
 REWARDS = {"fruits_poisons": {"fruits": 10, "poisons": -10}, "key_door": {"key": 1, "goal": 10}}
@@ -92,7 +96,8 @@ def test_counters_are_the_numeric_entries_of_an_info():
         "score",
         "deliveries",
     )
-    for scenario, names in COUNTERS.items():  # what the envs' infos hold at reset
+    for scenario in ("fruits_poisons", "key_door"):  # what the envs' infos hold at reset
+        names = COUNTERS[scenario]
         env = flatland_ma.parallel_env(scenario)
         _, infos = env.reset(seed=0)
         assert all(info_counters(info) == tuple(names) for info in infos.values())
@@ -286,7 +291,7 @@ def test_dfp_trains_on_the_measurements(tmp_path):
     assert data["args"]["measurement_scale"] == {"score": 100, "fruits": 10, "poisons": 10}
 
 
-def test_ppo_logs_every_agent_of_every_episode(tmp_path):
+def test_ppo_logs_every_agent_of_every_episode_and_saves_what_plays(tmp_path):
     out = tmp_path / "seed_0.csv"
     run_module(
         "baselines.ppo",
@@ -298,6 +303,8 @@ def test_ppo_logs_every_agent_of_every_episode(tmp_path):
         "128",
         "--total-timesteps",
         "4096",
+        "--checkpoint-every",
+        "4",
         "--csv",
         str(out),
     )
@@ -305,8 +312,81 @@ def test_ppo_logs_every_agent_of_every_episode(tmp_path):
     assert [(r["episode"], r["agent"]) for r in rows] == [
         (str(e), f"agent_{k}") for e in range(2) for k in range(4)
     ]
-    assert [int(r["step"]) for r in rows] == [2000] * 4 + [4000] * 4  # agent-steps
+    # Agent-steps that acted: the step that resets the world between episodes is not one.
+    assert [int(r["step"]) for r in rows] == [2000] * 4 + [4000] * 4
+    assert summary(out)["steps"] == 4096 - 2 * 4  # two resets
     assert sum(int(r["fruits"]) + int(r["poisons"]) for r in rows) > 0
+    # Checkpoints every 4 of the 8 updates and at the end, and TensorBoard events.
+    run = tmp_path / "seed_0"
+    assert sorted(p.name for p in run.glob("*.pt")) == ["update_00004.pt", "update_00008.pt"]
+    assert list(run.glob("events.out.tfevents.*"))
+    from flatland_ma.policies.checkpoint import CheckpointPolicy, read_checkpoint
+
+    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    assert saved["algorithm"] == "ppo" and saved["update"] == 8 and saved["agent_steps"] == 4088
+    policy = CheckpointPolicy(tmp_path / "seed_0.pt", seed=0)
+    env = __import__("flatland_ma").parallel_env("fruits_poisons_multi")
+    policy.check(env.observation_space("agent_0"), env.action_space("agent_0"))
+    observations, _ = env.reset(seed=0)
+    assert policy.act(observations["agent_0"]) in range(3)
+
+
+def test_ppo_advantages_match_a_hand_computation():
+    """Two slots, three steps: slot 0 is truncated at step 1 (its next observation is the
+    episode's last, whose value bootstraps), slot 1 terminates at step 0."""
+    import torch
+
+    from baselines.ppo import gae
+
+    gamma, lam = 0.9, 0.5
+    rewards = torch.tensor([[1.0, 2.0], [0.0, 0.0], [3.0, 1.0]])
+    values = torch.tensor([[0.5, 1.0], [0.2, 0.4], [0.7, 0.3]])
+    ends = torch.tensor([[0.0, 1.0], [1.0, 0.0], [0.0, 0.0]])
+    stops = torch.tensor([[0.0, 1.0], [0.0, 0.0], [0.0, 0.0]])
+    next_value = torch.tensor([0.6, 0.8])
+    got = gae(rewards, values, ends, stops, next_value, gamma, lam)
+    # Slot 0: t=2 bootstraps from next_value; t=1 truncated: from values[2] (the last
+    # observation's value), no carry; t=0 carries t=1's advantage.
+    a02 = 3.0 + gamma * 0.6 - 0.7
+    a01 = 0.0 + gamma * 0.7 - 0.2
+    a00 = 1.0 + gamma * 0.2 - 0.5 + gamma * lam * a01
+    # Slot 1: t=0 terminated: no bootstrap, no carry.
+    a12 = 1.0 + gamma * 0.8 - 0.3
+    a11 = 0.0 + gamma * 0.3 - 0.4 + gamma * lam * a12
+    a10 = 2.0 - 1.0
+    want = torch.tensor([[a00, a10], [a01, a11], [a02, a12]])
+    assert torch.allclose(got, want)
+
+
+def test_ppo_learns_only_from_slots_that_acted(tmp_path):
+    """Goals end the episode of the agent taking one while its world plays on: its slot
+    is inert until the world resets, and its rows are written when the world's episode
+    ends."""
+    scenario = tmp_path / "goals.yaml"
+    scenario.write_text(
+        "extends: fruits_poisons_multi\n"
+        "items:\n"
+        "  - {name: fruits, color: orange, reward: 10, count: 10}\n"
+        "  - {name: goals, color: lime, reward: 5, count: 12, terminal: true}\n"
+    )
+    out = tmp_path / "seed_1.csv"
+    run_module(
+        "baselines.ppo",
+        *("--scenario", str(scenario), "--seed", "1", "--num-envs", "2"),
+        *("--num-steps", "128", "--total-timesteps", "8192", "--csv", str(out)),
+    )
+    with open(out, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and len(rows) % 4 == 0
+    for e in range(len(rows) // 4):  # one row per agent per world's episode
+        assert [r["agent"] for r in rows[4 * e : 4 * e + 4]] == [f"agent_{k}" for k in range(4)]
+        assert {r["episode"] for r in rows[4 * e : 4 * e + 4]} == {str(e)}
+    early = [r for r in rows if r["goals"] == "1"]
+    assert early, "some agent took a goal and left its world early"
+    for r in rows:
+        assert float(r["return"]) == 10 * int(r["fruits"]) + 5 * int(r["goals"])
+    # Fewer agent-steps acted than slots were stepped: inert slots and resets don't count.
+    assert summary(out, "goals")["steps"] < 8192 - 4 * (len(rows) // 4)
 
 
 KEY_DOOR_BUDGETS = {

@@ -161,3 +161,30 @@ def test_a_bad_number_of_worlds_is_refused(bad):
 def test_multi_agent_scenarios_are_refused_by_the_gymnasium_vector_env():
     with pytest.raises(ValueError, match="BatchedParallelEnv"):
         FlatlandVectorEnv("fruits_poisons_multi", num_envs=2)
+
+
+@pytest.mark.parametrize("scenario", flatland_ma.list_scenarios())
+def test_every_scenario_batches_with_the_infos_of_separate_envs(scenario):
+    """Two worlds, three steps: every info entry of every slot is the separate env's,
+    numbers in number arrays and anything else (key_door's tuple of keys) as objects."""
+    batch = BatchedParallelEnv(scenario, num_worlds=2)
+    envs = [flatland_ma.parallel_env(scenario) for _ in range(2)]
+    m = batch.agents_per_world
+    _, infos = batch.reset(seed=3)
+    separate = [env.reset(seed=3 + w)[1] for w, env in enumerate(envs)]
+    batch.single_action_space.seed(1)
+    for _ in range(3):
+        for w, env in enumerate(envs):
+            for j, agent in enumerate(env.possible_agents):
+                for key, value in separate[w][agent].items():
+                    got = infos[key][w * m + j]
+                    assert got == value, (key, got, value)
+                    if isinstance(value, int | float) and not isinstance(value, bool):
+                        assert infos[key].dtype.kind in "if"
+        actions = [batch.single_action_space.sample() for _ in range(batch.num_slots)]
+        _, _, _, _, infos = batch.step(actions)
+        separate = [
+            env.step({a: actions[w * m + j] for j, a in enumerate(env.possible_agents)})[4]
+            for w, env in enumerate(envs)
+        ]
+    batch.close()

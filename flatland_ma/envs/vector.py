@@ -210,9 +210,7 @@ class BatchedParallelEnv:
     def _count(self, slot: int, info: dict) -> None:
         for key, value in info.items():
             if key not in self._counters:
-                whole = isinstance(value, int | np.integer) and not isinstance(value, bool)
-                dtype = np.int64 if whole else np.float64
-                self._counters[key] = np.zeros(self.num_slots, dtype)
+                self._counters[key] = _counter_array(value, self.num_slots)
             self._counters[key][slot] = value
 
     def _infos(self) -> dict:
@@ -279,6 +277,18 @@ def make_vector(
     if max_episode_steps is not None and max_episode_steps > 0:
         kwargs["max_cycles"] = max_episode_steps
     return FlatlandVectorEnv(scenario, num_envs=num_envs, **kwargs)
+
+
+def _counter_array(value, n: int) -> np.ndarray:
+    """Room for one info entry per slot: integers, other numbers, or anything else (such
+    as the tuple of keys held) as objects."""
+    if isinstance(value, bool | np.bool_):
+        return np.zeros(n, bool)
+    if isinstance(value, int | np.integer):
+        return np.zeros(n, np.int64)
+    if isinstance(value, float | np.floating):
+        return np.zeros(n, np.float64)
+    return np.empty(n, object)
 
 
 def _same(first: FlatlandParallelEnv) -> FlatlandParallelEnv:

@@ -21,13 +21,7 @@ from gymnasium import spaces
 from flatland_ma.agents.actuators import DiscreteAction
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.play.keys import NEXT_AGENT, QUIT, KeyMap, Keys
-from flatland_ma.policies import (
-    CarrierPolicy,
-    GreedyForager,
-    PlannerPolicy,
-    RandomPolicy,
-    Sniffer,
-)
+from flatland_ma.policies.named import SHIPPED, is_checkpoint, make_policy
 
 SCORE_COLUMNS = ("time", "scenario", "seed", "agent", "steps", "score")
 """The columns of the scores file, one row per agent you drove in an episode."""
@@ -58,14 +52,10 @@ class IdlePolicy:
 
 
 OTHERS: dict[str, Callable] = {
-    "greedy": lambda env, agent, seed: GreedyForager(env.spec),
-    "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
-    "planner": lambda env, agent, seed: PlannerPolicy(env, agent),
-    "carrier": lambda env, agent, seed: CarrierPolicy(env, agent),
-    "sniffer": lambda env, agent, seed: Sniffer(env.spec, seed=seed),
+    **SHIPPED,
     "idle": lambda env, agent, seed: IdlePolicy(env, agent),
 }
-"""The policies the agents you do not drive can follow, by name."""
+"""The policies the agents you do not drive can follow, by name (or a checkpoint's path)."""
 
 
 @dataclass
@@ -103,16 +93,19 @@ class Session:
     """Whether the player left (Esc, or closing the window) before the last episode ended."""
 
     def __post_init__(self):
-        if self.others not in OTHERS:
+        if self.others not in OTHERS and not is_checkpoint(self.others):
             raise ValueError(
-                f"no policy {self.others!r} for the others; one of {', '.join(OTHERS)}"
+                f"no policy {self.others!r} for the others; one of {', '.join(OTHERS)}, "
+                "or a checkpoint file (.pt)"
             )
         env = self.env
         self.maps = {
             a: KeyMap(env.action_names(a), isinstance(env.action_space(a), spaces.Discrete))
             for a in env.possible_agents
         }
-        make = OTHERS[self.others]
+        make = OTHERS.get(self.others) or (
+            lambda env, agent, seed: make_policy(self.others, env, agent, seed)
+        )
         self.policies = {}  # none with one agent: nobody else to drive
         if len(env.possible_agents) > 1:
             self.policies = {

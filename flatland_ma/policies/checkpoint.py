@@ -1,0 +1,134 @@
+"""A trained network saved by the baselines, played as a policy.
+
+A checkpoint is one file written by ``torch.save``: a dict with the network as an exported
+program (``torch.export``) that maps a batch of raw observations, exactly as the env gives
+them, to action logits, so playing it needs neither the training code nor its classes;
+beside it the scenario, the spaces, the training arguments and the trainer's own state
+(parameters, optimiser) for resuming. ``write_checkpoint`` (used by the baselines) writes
+one; ``CheckpointPolicy`` plays one::
+
+    policy = CheckpointPolicy("runs/ppo/fruits_poisons/seed_0.pt")
+    action = policy.act(observation)
+
+torch is needed (the ``train`` extra); it is imported only when a checkpoint is used.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FORMAT = "flatland_ma.policy"
+VERSION = 1
+
+
+def write_checkpoint(
+    path: str | Path,
+    network: Any,
+    example: np.ndarray,
+    *,
+    scenario: str,
+    observation_space: Any,
+    action_space: Any,
+    extra: dict | None = None,
+) -> Path:
+    """Save ``network`` (a torch module from a batch of raw observations like ``example``,
+    shape (batch, ...), to logits) with the facts needed to play it; ``extra`` holds
+    anything else to keep (arguments, the trainer's state). Written to a temporary file
+    and moved into place, so a reader never sees half a checkpoint."""
+    import torch
+
+    batch = torch.export.Dim("batch")
+    inputs = torch.as_tensor(np.ascontiguousarray(example[:2] if len(example) > 1 else example))
+    if len(inputs) == 1:  # export needs an example batch of two to leave the batch free
+        inputs = torch.cat([inputs, inputs])
+    network.eval()
+    try:
+        program = torch.export.export(network, (inputs,), dynamic_shapes=({0: batch},))
+    finally:
+        network.train()
+    buffer = io.BytesIO()
+    torch.export.save(program, buffer)
+    data = {
+        "format": FORMAT,
+        "version": VERSION,
+        "scenario": scenario,
+        "observation_space": str(observation_space),
+        "action_space": str(action_space),
+        "program": buffer.getvalue(),
+        **(extra or {}),
+    }
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_name(path.name + ".part")
+    torch.save(data, part)
+    os.replace(part, path)
+    return path
+
+
+def read_checkpoint(path: str | Path) -> dict:
+    """The checkpoint's dict, checked to be one; errors name the file."""
+    try:
+        import torch
+    except ImportError as err:
+        raise ValueError(
+            f"{path}: playing a checkpoint needs torch (pip install 'flatland-ma[train]')"
+        ) from err
+    if not Path(path).is_file():
+        raise ValueError(f"{path}: no such checkpoint file")
+    try:
+        data = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as err:  # a file torch cannot read: say which and why
+        raise ValueError(f"{path}: not a checkpoint torch can read ({err})") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise ValueError(f"{path}: not a flatland_ma policy checkpoint")
+    if data.get("version") != VERSION:
+        raise ValueError(
+            f"{path}: checkpoint version {data.get('version')}, this flatland_ma reads {VERSION}"
+        )
+    return data
+
+
+class CheckpointPolicy:
+    """Plays a saved network: samples from its action distribution with its own seeded
+    generator, or takes the most likely action when ``greedy``."""
+
+    def __init__(self, path: str | Path, greedy: bool = False, seed: int | None = None):
+        import torch
+
+        self.path = Path(path)
+        self.data = read_checkpoint(path)
+        self.scenario: str = self.data["scenario"]
+        self.program = torch.export.load(io.BytesIO(self.data["program"])).module()
+        self.greedy = greedy
+        self.rng = np.random.default_rng(seed)
+
+    def check(self, observation_space, action_space) -> None:
+        """Raise ``ValueError`` unless the agent's spaces are those the network learnt on."""
+        for what, space in (("observation", observation_space), ("action", action_space)):
+            saved = self.data[f"{what}_space"]
+            if str(space) != saved:
+                raise ValueError(
+                    f"{self.path}: trained for the {what} space {saved}, the agent has {space}"
+                )
+
+    def act(self, observation) -> int:
+        return int(self.act_batch(np.asarray(observation)[None])[0])
+
+    def act_batch(self, observations: np.ndarray) -> np.ndarray:
+        """One action per row of ``observations``."""
+        import torch
+
+        with torch.inference_mode():
+            logits = self.program(torch.as_tensor(observations, dtype=torch.float32))
+        logits = logits.double().numpy()
+        if self.greedy:
+            return logits.argmax(axis=1)
+        p = np.exp(logits - logits.max(axis=1, keepdims=True))
+        cumulative = (p / p.sum(axis=1, keepdims=True)).cumsum(axis=1)
+        draws = self.rng.random((len(p), 1))
+        return np.minimum((cumulative < draws).sum(axis=1), p.shape[1] - 1)

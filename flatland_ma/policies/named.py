@@ -1,0 +1,43 @@
+"""Policies by name, for the command line: the shipped ones, or a checkpoint's path."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.policies.carrier import CarrierPolicy
+from flatland_ma.policies.checkpoint import CheckpointPolicy
+from flatland_ma.policies.greedy import GreedyForager
+from flatland_ma.policies.planner import PlannerPolicy
+from flatland_ma.policies.rollout import RandomPolicy
+from flatland_ma.policies.sniffer import Sniffer
+
+SHIPPED: dict[str, Callable] = {
+    "greedy": lambda env, agent, seed: GreedyForager(env.spec),
+    "planner": lambda env, agent, seed: PlannerPolicy(env, agent),
+    "carrier": lambda env, agent, seed: CarrierPolicy(env, agent),
+    "sniffer": lambda env, agent, seed: Sniffer(env.spec, seed=seed),
+    "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
+}
+"""The shipped policies: name -> maker(env, agent, seed)."""
+
+
+def is_checkpoint(name: str) -> bool:
+    """Whether ``name`` is meant as a checkpoint file rather than a shipped policy."""
+    return name not in SHIPPED and (name.endswith(".pt") or Path(name).is_file())
+
+
+def make_policy(name: str, env: FlatlandParallelEnv, agent: str, seed: int | None = None):
+    """The policy ``name`` (a shipped one, or the path of a checkpoint written by the
+    baselines) for ``agent`` of ``env``; ``ValueError`` if there is none by that name or
+    the checkpoint was trained for other spaces than the agent's."""
+    if name in SHIPPED:
+        return SHIPPED[name](env, agent, seed)
+    if not is_checkpoint(name):
+        raise ValueError(
+            f"no policy {name!r}: one of {', '.join(SHIPPED)}, or a checkpoint file (.pt)"
+        )
+    policy = CheckpointPolicy(name, seed=seed)
+    policy.check(env.observation_space(agent), env.action_space(agent))
+    return policy
