@@ -41,6 +41,7 @@ from baselines.common import (
     trunk_length,
 )
 from baselines.writer import Scalars
+from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.policies.checkpoint import write_checkpoint
 
@@ -95,7 +96,9 @@ class Args:
     tensorboard: bool = True
     """Write TensorBoard events beside the CSV."""
     torch_threads: int = 1
-    """Threads torch may use (the env runs in this process between network calls)."""
+    """Threads torch may use."""
+    shards: int = 1
+    """Processes the worlds are spread over (1: all in this process)."""
 
 
 def layer_init(layer: nn.Module, std: float = np.sqrt(2), bias: float = 0.0) -> nn.Module:
@@ -248,7 +251,9 @@ def update(
     return {key: float(np.mean(values)) for key, values in stats.items()}
 
 
-def batched_env(args: Args) -> BatchedParallelEnv:
+def batched_env(args: Args) -> BatchedParallelEnv | ShardedParallelEnv:
+    if args.shards > 1:
+        return ShardedParallelEnv(args.scenario, args.num_envs, shards=args.shards, copy=False)
     return BatchedParallelEnv(args.scenario, num_worlds=args.num_envs, copy=False)
 
 
@@ -264,7 +269,7 @@ def main(args: Args) -> dict:
             f"the agents observe {space}"
         )
     slots, rays = env.num_slots, space.shape[0]
-    names = env.worlds[0].possible_agents
+    names = env.possible_agents
     m = env.agents_per_world
     iterations = max(1, args.total_timesteps // (slots * args.num_steps))
     csv_path = Path(args.csv or default_csv("ppo", args.scenario, args.seed))

@@ -91,6 +91,8 @@ class BatchedParallelEnv:
         self.worlds = [first] + [_same(first) for _ in range(num_worlds - 1)]
         self.spec = first.spec
         self.num_worlds = num_worlds
+        self.possible_agents = list(first.possible_agents)
+        """The agents of each world, in slot order."""
         self.agents_per_world = len(first.possible_agents)
         self.num_slots = num_worlds * self.agents_per_world
         self.copy = copy
@@ -224,13 +226,26 @@ class BatchedParallelEnv:
 
 class FlatlandVectorEnv(gymnasium.vector.VectorEnv):
     """The Gymnasium vector env of a single-agent scenario: ``num_envs`` worlds, one slot
-    each (see the module's docstring). ``infos`` follow Gymnasium's convention for vector
+    each (see the module's docstring); with ``shards`` they are spread over that many
+    processes (``flatland_ma.envs.shards``). ``infos`` follow Gymnasium's convention for vector
     envs: per key an array over the envs, and under ``"_" + key`` which envs have it."""
 
     metadata = {"autoreset_mode": AUTORESET_MODE, "render_modes": []}
 
-    def __init__(self, scenario: Any = "fruits_poisons", num_envs: int = 1, **kwargs):
-        self.batch = BatchedParallelEnv(scenario, num_worlds=num_envs, **kwargs)
+    def __init__(
+        self,
+        scenario: Any = "fruits_poisons",
+        num_envs: int = 1,
+        shards: int | None = None,
+        **kwargs,
+    ):
+        self.batch: Any
+        if shards is None:
+            self.batch = BatchedParallelEnv(scenario, num_worlds=num_envs, **kwargs)
+        else:  # the worlds spread over processes (imported here: it builds on this module)
+            from flatland_ma.envs.shards import ShardedParallelEnv
+
+            self.batch = ShardedParallelEnv(scenario, num_envs, shards=shards, **kwargs)
         if self.batch.agents_per_world != 1:
             raise ValueError(
                 f"scenario {scenario!r} has {self.batch.agents_per_world} agents; "

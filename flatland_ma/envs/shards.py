@@ -1,0 +1,333 @@
+"""The batched env's worlds spread over processes, to use every core.
+
+``ShardedParallelEnv(scenario, num_worlds, shards=K)`` has the interface of
+``BatchedParallelEnv`` and returns exactly what it returns for the same seeds and actions:
+the worlds are split into K contiguous groups, each a ``BatchedParallelEnv`` in a process
+of its own, and world ``w`` is still seeded ``seed + w``.
+Actions, observations, rewards, terminations, truncations, the ``active`` flags and the
+numeric episode counters pass through shared memory; a step sends each process one short
+message and waits for its answer. Info entries that are not numbers (the tuple of keys an
+agent holds) come back with the answers.
+
+Every action is checked in this process before any shard moves, so a bad one raises the
+batched env's error and changes nothing anywhere. If a shard's process dies, the next call
+raises ``RuntimeError`` naming it; ``close()`` stops them all.
+
+The processes start the platform's default way unless ``context`` names one ("fork",
+"forkserver", "spawn"); with "spawn" or "forkserver" the script that makes the env needs
+Python's ``if __name__ == "__main__":`` guard.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+from typing import Any
+
+import gymnasium
+import numpy as np
+
+from flatland_ma.envs.vector import AUTORESET_MODE, BatchedParallelEnv, _seeds
+
+STARTUP_SECONDS = 300.0
+"""How long a shard may take to build its worlds before the env gives up on it."""
+
+
+def _layout(n: int, space, action, infos: dict) -> dict[str, tuple[tuple, np.dtype]]:
+    """Name -> (shape, dtype) of every array shared with the shards, for ``n`` slots of
+    observations in ``space``, actions in ``action`` and the entries of ``infos``."""
+    arrays: dict[str, tuple[tuple, np.dtype]] = {}
+    subspaces = space.spaces if isinstance(space, gymnasium.spaces.Dict) else {None: space}
+    for key, sub in subspaces.items():
+        assert sub.shape is not None
+        arrays[f"obs/{key}" if key is not None else "obs"] = ((n, *sub.shape), np.dtype(sub.dtype))
+    assert action.shape is not None
+    arrays["actions"] = ((n, *action.shape), np.dtype(action.dtype))
+    arrays["rewards"] = ((n,), np.dtype(np.float64))
+    for flag in ("terminations", "truncations", "active"):
+        arrays[flag] = ((n,), np.dtype(bool))
+    for key, values in infos.items():
+        if key != "active" and values.dtype != object:
+            arrays[f"info/{key}"] = ((n,), values.dtype)
+    return arrays
+
+
+def _views(buffers: dict, layout: dict) -> dict[str, np.ndarray]:
+    return {
+        name: np.frombuffer(buffers[name], dtype=dtype, count=int(np.prod(shape))).reshape(shape)
+        for name, (shape, dtype) in layout.items()
+    }
+
+
+class ShardedParallelEnv:
+    """``num_worlds`` worlds of ``scenario`` in ``shards`` processes (default: one per
+    core, at most one per world); see the module's docstring. ``copy=False`` returns the
+    shared arrays themselves, overwritten by the next ``step`` or ``reset``."""
+
+    metadata = {"autoreset_mode": AUTORESET_MODE}
+
+    def __init__(
+        self,
+        scenario: Any = "fruits_poisons",
+        num_worlds: int = 1,
+        shards: int | None = None,
+        max_cycles: int | None = None,
+        copy: bool = True,
+        context: str | None = None,
+        **overrides,
+    ):
+        # One world here, to check the arguments, learn the spaces and lay out the arrays.
+        probe = BatchedParallelEnv(scenario, num_worlds=1, max_cycles=max_cycles, **overrides)
+        shards = min(num_worlds, shards if shards is not None else os.cpu_count() or 1)
+        if isinstance(shards, bool) or not isinstance(shards, int) or shards < 1:
+            raise ValueError(f"shards must be a positive integer, not {shards!r}")
+        self.spec = probe.spec
+        self.num_worlds, self.num_shards, self.copy = num_worlds, shards, copy
+        self.possible_agents = probe.possible_agents
+        self.agents_per_world = probe.agents_per_world
+        self.num_slots = num_worlds * self.agents_per_world
+        self.single_observation_space = probe.single_observation_space
+        self.single_action_space = probe.single_action_space
+        self.observation_space = gymnasium.vector.utils.batch_space(
+            self.single_observation_space, self.num_slots
+        )
+        self.action_space = gymnasium.vector.utils.batch_space(
+            self.single_action_space, self.num_slots
+        )
+        self._checker = probe.worlds[0]
+        _, probe_infos = probe.reset(seed=0)
+        self._layout = _layout(
+            self.num_slots, self.single_observation_space, self.single_action_space, probe_infos
+        )
+        self._objects = [k for k, v in probe_infos.items() if v.dtype == object]
+        processes = mp.get_context(context)
+        self._buffers = {
+            name: processes.RawArray("b", max(1, int(np.prod(shape)) * dtype.itemsize))
+            for name, (shape, dtype) in self._layout.items()
+        }
+        self._arrays = _views(self._buffers, self._layout)
+        self._object_infos = {k: np.empty(self.num_slots, object) for k in self._objects}
+        bounds = np.linspace(0, num_worlds, shards + 1).round().astype(int)
+        self._worlds = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
+        m = self.agents_per_world
+        self._slots = [slice(a * m, b * m) for a, b in self._worlds]
+        self._acting = np.zeros(self.num_slots, bool)
+        self._ready = False
+        self._pipes, self._processes = [], []
+        try:
+            for k, (first, last) in enumerate(self._worlds):
+                ours, theirs = processes.Pipe()
+                process = processes.Process(  # type: ignore[attr-defined]
+                    target=_serve,
+                    args=(
+                        theirs,
+                        scenario,
+                        last - first,
+                        max_cycles,
+                        overrides,
+                        self._slots[k],
+                        self._buffers,
+                        self._layout,
+                    ),
+                    name=f"flatland_ma-shard-{k}",
+                    daemon=True,
+                )
+                process.start()
+                theirs.close()
+                self._pipes.append(ours)
+                self._processes.append(process)
+            for k in range(shards):
+                self._answer(k, STARTUP_SECONDS)
+        except BaseException:
+            self.close()
+            raise
+
+    # -- the loop -----------------------------------------------------------------------
+
+    def reset(self, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``)."""
+        seeds = _seeds(seed, self.num_worlds)
+        for k, (first, last) in enumerate(self._worlds):
+            self._send(k, ("reset", seeds[first:last]))
+        self._collect()
+        self._ready = True
+        return self._results()[0], self._infos()
+
+    def step(self, actions):
+        """One step of every world, as ``BatchedParallelEnv.step``."""
+        if not self._ready:
+            raise RuntimeError("call reset() first")
+        if len(actions) != self.num_slots:
+            raise ValueError(
+                f"expected one action per slot ({self.num_slots}: {self.num_worlds} worlds x "
+                f"{self.agents_per_world} agents), got {len(actions)}"
+            )
+        target = self._arrays["actions"]
+        if self._plainly_valid(actions):
+            np.copyto(target, actions, casting="unsafe")
+        else:
+            checked = self._check(actions)
+            for slot, action in checked.items():
+                target[slot] = action
+        for k in range(self.num_shards):
+            self._send(k, ("step", None))
+        self._collect()
+        return (*self._results(), self._infos())
+
+    def close(self) -> None:
+        for pipe in self._pipes:
+            try:
+                pipe.send(("close", None))
+            except (OSError, ValueError):
+                pass
+        for process in self._processes:
+            process.join(timeout=5)
+            if process.is_alive():
+                process.terminate()
+                process.join()
+        for pipe in self._pipes:
+            pipe.close()
+        self._pipes, self._processes, self._ready = [], [], False
+
+    def __del__(self):
+        if getattr(self, "_processes", None):
+            self.close()
+
+    # -- inside -------------------------------------------------------------------------
+
+    def _plainly_valid(self, actions) -> bool:
+        """Whether ``actions`` is an integer array of the discrete space's values (checked
+        at once; anything else is checked slot by slot)."""
+        space = self.single_action_space
+        if not (
+            isinstance(space, gymnasium.spaces.Discrete)
+            and isinstance(actions, np.ndarray)
+            and actions.dtype.kind in "iu"
+            and actions.shape == (self.num_slots,)
+        ):
+            return False
+        acting = actions[self._acting]
+        return bool(((acting >= space.start) & (acting < space.start + space.n)).all())
+
+    def _check(self, actions) -> dict[int, Any]:
+        """The action of every slot that acts next step, checked as the batched env checks
+        it (the same errors); nothing is sent before all have passed."""
+        m = self.agents_per_world
+        checked = {}
+        for slot in np.flatnonzero(self._acting):
+            agent = self._checker.possible_agents[slot % m]
+            try:
+                checked[slot] = self._checker._actuators[slot % m].check(agent, actions[slot])
+            except ValueError as err:
+                raise ValueError(f"world {slot // m}, slot {slot}: {err}") from None
+        return checked
+
+    def _send(self, k: int, message) -> None:
+        try:
+            self._pipes[k].send(message)
+        except (OSError, ValueError):
+            raise RuntimeError(self._dead(k)) from None
+
+    def _answer(self, k: int, timeout: float | None = None):
+        pipe = self._pipes[k]
+        if timeout is not None and not pipe.poll(timeout):
+            raise RuntimeError(f"shard {k} did not answer within {timeout:.0f} s")
+        try:
+            status, payload = pipe.recv()
+        except (EOFError, OSError):
+            raise RuntimeError(self._dead(k)) from None
+        if status == "error":
+            raise RuntimeError(f"shard {k} failed: {payload}")
+        return payload
+
+    def _collect(self) -> None:
+        for k in range(self.num_shards):
+            objects = self._answer(k)
+            for key, values in objects.items():
+                self._object_infos[key][self._slots[k]] = values
+        a = self._arrays
+        # Next step acts every slot that is live and did not just finish (a world whose
+        # agents have all finished is reset instead).
+        self._acting = a["active"] & ~(a["terminations"] | a["truncations"])
+
+    def _dead(self, k: int) -> str:
+        process = self._processes[k]
+        process.join(timeout=1)
+        return f"shard {k} ({process.name}) stopped (exit code {process.exitcode})"
+
+    def _results(self):
+        a = self._arrays
+        if "obs" in a:
+            observations = a["obs"]
+        else:
+            observations = {name[4:]: v for name, v in a.items() if name.startswith("obs/")}
+        out = (observations, a["rewards"], a["terminations"], a["truncations"])
+        if not self.copy:
+            return out
+        return tuple(
+            {k: v.copy() for k, v in x.items()} if isinstance(x, dict) else x.copy() for x in out
+        )
+
+    def _infos(self) -> dict:
+        a = self._arrays
+        infos = {name[5:]: v for name, v in a.items() if name.startswith("info/")}
+        infos.update(self._object_infos)
+        infos["active"] = a["active"]
+        if self.copy:
+            infos = {key: values.copy() for key, values in infos.items()}
+        return infos
+
+
+def _serve(pipe, scenario, num_worlds, max_cycles, overrides, slots, buffers, layout) -> None:
+    """A shard's process: its worlds, stepped on request, results into shared memory."""
+    try:
+        batch = BatchedParallelEnv(
+            scenario, num_worlds=num_worlds, max_cycles=max_cycles, copy=False, **overrides
+        )
+        arrays = {name: view[slots] for name, view in _views(buffers, layout).items()}
+        pipe.send(("ok", None))
+    except Exception as err:  # reported to the parent, which raises it
+        pipe.send(("error", f"{type(err).__name__}: {err}"))
+        return
+    while True:
+        try:
+            command, payload = pipe.recv()
+        except (EOFError, KeyboardInterrupt):
+            break
+        if command == "close":
+            break
+        try:
+            if command == "reset":
+                observations, infos = batch.reset(seed=payload)
+                rewards = terminations = truncations = None
+            else:
+                observations, rewards, terminations, truncations, infos = batch.step(
+                    arrays["actions"]
+                )
+            _write(arrays, observations, rewards, terminations, truncations, infos)
+            objects = {k: list(v) for k, v in infos.items() if v.dtype == object}
+            pipe.send(("ok", objects))
+        except Exception as err:
+            pipe.send(("error", f"{type(err).__name__}: {err}"))
+    batch.close()
+
+
+def _write(arrays, observations, rewards, terminations, truncations, infos) -> None:
+    if isinstance(observations, dict):
+        for key, values in observations.items():
+            arrays[f"obs/{key}"][:] = values
+    else:
+        arrays["obs"][:] = observations
+    if rewards is None:
+        arrays["rewards"][:] = 0.0
+        arrays["terminations"][:] = False
+        arrays["truncations"][:] = False
+    else:
+        arrays["rewards"][:] = rewards
+        arrays["terminations"][:] = terminations
+        arrays["truncations"][:] = truncations
+    for key, values in infos.items():
+        if key == "active":
+            arrays["active"][:] = values
+        elif values.dtype != object:
+            arrays[f"info/{key}"][:] = values
