@@ -6,8 +6,10 @@ its own copy of the network and its own Adam state, apply their gradients to one
 parameters in shared memory without locks (Hogwild). Each syncs its copy, acts 20 steps,
 and updates. Runs are not reproducible: the processes interleave as the OS schedules them.
 
-``--mode a2c``: the same 5 environments stepped in lockstep in one process, one update of
-the same loss on all 5 x 20 steps; reproducible from the seed.
+``--mode a2c``: the same 5 environments stepped in lockstep in one process (5 worlds of the
+batched env, one forward pass for all), one update of the same loss on all 5 x 20 steps;
+reproducible from the seed. A world's step after its episode ends resets it and is left
+out of the loss (the batched env's NEXT_STEP autoreset).
 
     python -m baselines.a3c --seed 0 --total-timesteps 250000
     python -m baselines.a3c --mode a2c --seed 0
@@ -17,7 +19,8 @@ from __future__ import annotations
 
 import queue
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -28,6 +31,7 @@ import tyro
 from torch import nn
 
 from baselines.common import (
+    FromObservation,
     RunLog,
     conv_trunk,
     counters_text,
@@ -40,6 +44,9 @@ from baselines.common import (
     to_input,
     trunk_length,
 )
+from baselines.writer import Scalars
+from flatland_ma.envs.vector import BatchedParallelEnv
+from flatland_ma.policies.checkpoint import write_checkpoint
 
 
 @dataclass
@@ -72,6 +79,11 @@ class Args:
     """Gradients are clipped to this global norm (universe-starter-agent's 40)."""
     hidden: int = 128
     """Units of the fully connected layer that replaces the LSTM (the paper: 128)."""
+    checkpoint_every: int = 500
+    """a2c: save a checkpoint every this many updates (0: only the final one, which a3c
+    saves too)."""
+    tensorboard: bool = True
+    """Write TensorBoard events beside the CSV."""
 
 
 class ActorCritic(nn.Module):
@@ -101,59 +113,79 @@ class ActorCritic(nn.Module):
 
 
 class Actors:
-    """Environments stepped together, with their current inputs and running returns."""
+    """Worlds of the batched env stepped together, with their current inputs and running
+    returns. World k of the run is reset with seed ``seed * num_workers + k`` and then
+    continues its own generator, as a separate env would."""
 
     def __init__(self, args: Args, ranks: list[int]):
-        self.envs = [make_env(args.scenario) for _ in ranks]
+        self.env = BatchedParallelEnv(args.scenario, num_worlds=len(ranks), copy=False)
+        if self.env.agents_per_world != 1:
+            raise ValueError(f"{args.scenario} has several agents; A3C and A2C play one")
         self.use_depth, self.gamma = args.use_depth, args.gamma
-        self.x = [
-            to_input(env.reset(seed=args.seed * args.num_workers + k)[0], args.use_depth)
-            for env, k in zip(self.envs, ranks)
-        ]
-        self.returns = [0.0 for _ in ranks]
+        start = time.perf_counter()
+        observation, infos = self.env.reset(seed=[args.seed * args.num_workers + k for k in ranks])
+        self.seconds = time.perf_counter() - start
+        self.counters = [k for k in infos if k != "active" and infos[k].dtype.kind in "iuf"]
+        self.x = to_input(observation, self.use_depth)
+        self.acting = np.ones(len(ranks), bool)
+        """Whether the env uses each world's next action (not on the step that resets it)."""
+        self.returns = np.zeros(len(ranks))
 
     def rollout(self, model: ActorCritic, num_steps: int, on_episode):
-        """Act ``num_steps`` steps in every env; ``on_episode(steps_so_far, return, info)`` is
-        called at each episode end. Returns inputs (T*N, C, L), actions (T*N,) and the
-        n-step returns (T*N,), bootstrapped from V of the last state and through the step
-        limit (a truncation), cut at terminations."""
-        n = len(self.envs)
-        inputs, actions, rewards, dones = [], [], np.zeros((num_steps, n)), np.zeros((num_steps, n))
+        """Act ``num_steps`` steps in every world; ``on_episode(steps_so_far, return, info)``
+        is called at each episode end. Returns inputs (K, C, L), actions (K,) and the n-step
+        returns (K,) of the K steps whose action the env used (a world's first step after
+        its episode ended resets it instead), bootstrapped from V of the last state and
+        through the step limit (a truncation), cut at terminations."""
+        n = len(self.returns)
+        inputs, actions = [], []
+        rewards, dones, used = np.zeros((num_steps, n)), np.zeros((num_steps, n)), []
+        steps = 0
         for t in range(num_steps):
-            x = torch.from_numpy(np.stack(self.x))
+            x = torch.from_numpy(self.x)
             with torch.no_grad():
                 logits, _ = model(x)
             action = torch.distributions.Categorical(logits=logits).sample()
             inputs.append(x)
             actions.append(action)
-            for e, env in enumerate(self.envs):
-                observation, reward, terminated, truncated, info = env.step(int(action[e]))
-                self.returns[e] += reward
-                self.x[e] = to_input(observation, self.use_depth)
-                if truncated and not terminated:  # r + gamma V(s_T): the episode goes on unseen
-                    with torch.no_grad():
-                        reward += self.gamma * float(model(torch.from_numpy(self.x[e])[None])[1])
-                rewards[t, e], dones[t, e] = reward, terminated or truncated
-                if terminated or truncated:
-                    on_episode(t * n + e + 1, self.returns[e], info)
+            used.append(self.acting)
+            tick = time.perf_counter()
+            observation, reward, terminated, truncated, infos = self.env.step(action.numpy())
+            self.seconds += time.perf_counter() - tick
+            self.x = to_input(observation, self.use_depth)
+            self.returns += reward
+            rewards[t] = reward
+            # r + gamma V(s_T) for a truncation: the episode goes on unseen. The observation
+            # returned with it is the episode's last (the world resets on the next step).
+            for e in np.flatnonzero(truncated & ~terminated):
+                with torch.no_grad():
+                    last = model(torch.from_numpy(self.x[e : e + 1]))[1]
+                rewards[t, e] += self.gamma * float(last)
+            done = terminated | truncated
+            dones[t] = done
+            for e in range(n):
+                steps += int(self.acting[e])
+                if done[e]:
+                    on_episode(steps, self.returns[e], {k: infos[k][e] for k in self.counters})
                     self.returns[e] = 0.0
-                    self.x[e] = to_input(env.reset()[0], self.use_depth)
+            self.acting = ~done
         with torch.no_grad():
-            _, next_value = model(torch.from_numpy(np.stack(self.x)))
+            _, next_value = model(torch.from_numpy(self.x))
         # R_t = r_t + gamma (1 - done_t) R_{t+1}, with R_T = V(s_T)
         returns, running = np.zeros((num_steps, n)), next_value.numpy().astype(np.float64)
         for t in reversed(range(num_steps)):
             running = rewards[t] + self.gamma * (1.0 - dones[t]) * running
             returns[t] = running
+        keep = torch.from_numpy(np.concatenate(used))
         return (
-            torch.cat(inputs),
-            torch.cat(actions),
-            torch.from_numpy(returns.reshape(-1)).float(),
+            torch.cat(inputs)[keep],
+            torch.cat(actions)[keep],
+            torch.from_numpy(returns.reshape(-1)).float()[keep],
         )
 
     @property
     def env_seconds(self) -> float:
-        return sum(env.seconds for env in self.envs)
+        return self.seconds
 
 
 def a2c_loss(model: ActorCritic, x, actions, returns, args: Args) -> torch.Tensor:
@@ -197,8 +229,9 @@ def worker(rank: int, args: Args, shape: tuple, shared_model: ActorCritic, steps
     messages.put(("done", rank, actors.env_seconds, time.perf_counter() - start))
 
 
-def train_a3c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
-    """Start the actor-learners, log their episodes; return (env seconds, busy seconds)."""
+def train_a3c(args: Args, log: RunLog, shape: tuple, out: Outputs):
+    """Start the actor-learners, log their episodes; return (env seconds, busy seconds,
+    the shared model)."""
     shared_model = ActorCritic(*shape)
     shared_model.share_memory()
     context = mp.get_context("spawn")
@@ -223,6 +256,7 @@ def train_a3c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
             step = max(step, message[1])
             _, _, episode_return, info = message
             log.episode(step, episode_return, info)
+            out.scalars.add("charts/episodic_return", episode_return, step)
             print(
                 f"step={step} return={episode_return:g} {counters_text(info, log.counters)}",
                 flush=True,
@@ -232,21 +266,23 @@ def train_a3c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
             finished += 1
     for process in processes:
         process.join()
-    return env_seconds, busy_seconds
+    return env_seconds, busy_seconds, shared_model
 
 
-def train_a2c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
-    """All actors in one process, one synchronous update per rollout."""
+def train_a2c(args: Args, log: RunLog, shape: tuple, out: Outputs):
+    """All actors in one process, one synchronous update per rollout; returns (env
+    seconds, busy seconds, the model)."""
     start = time.perf_counter()
     model = ActorCritic(*shape)
     optimizer = torch.optim.Adam(
         model.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
     )
     actors = Actors(args, list(range(args.num_workers)))
-    global_step = 0
+    global_step, update = 0, 0
 
     def on_episode(offset, episode_return, info):  # reads global_step when called
         log.episode(global_step + offset, episode_return, info)
+        out.scalars.add("charts/episodic_return", episode_return, global_step + offset)
         print(
             f"step={global_step + offset} return={episode_return:g} "
             + counters_text(info, log.counters),
@@ -261,28 +297,65 @@ def train_a2c(args: Args, log: RunLog, shape: tuple) -> tuple[float, float]:
         nn.utils.clip_grad_norm_(model.parameters(), args.max_grad_norm)
         optimizer.step()
         global_step += len(actions)
-    return actors.env_seconds, time.perf_counter() - start
+        update += 1
+        out.scalars.add("losses/loss", loss.item() / max(1, len(actions)), global_step)
+        if args.checkpoint_every and update % args.checkpoint_every == 0:
+            out.save(model, out.run_dir / f"update_{update:05d}.pt", update, global_step)
+    return actors.env_seconds, time.perf_counter() - start, model
 
 
 TRAIN = {"a3c": train_a3c, "a2c": train_a2c}
 """Mode -> its training loop."""
 
 
+class Outputs:
+    """What a run writes beside its CSV: TensorBoard events and checkpoints in
+    ``<csv without .csv>/``, the final checkpoint as ``<csv without .csv>.pt``."""
+
+    def __init__(self, args: Args, csv_path: str, example: np.ndarray, spaces: tuple):
+        self.args, self.example, self.spaces = args, example, spaces
+        self.final = Path(csv_path).with_suffix(".pt")
+        self.run_dir = Path(csv_path).with_suffix("")
+        self.scalars = Scalars(self.run_dir if args.tensorboard else None)
+
+    def save(self, model: ActorCritic, path: Path, update: int | None, steps: int) -> None:
+        write_checkpoint(
+            path,
+            FromObservation(model, input_channels(self.args.use_depth)),
+            self.example,
+            scenario=self.args.scenario,
+            observation_space=self.spaces[0],
+            action_space=self.spaces[1],
+            extra={
+                "algorithm": self.args.mode,
+                "args": asdict(self.args),
+                "update": update,
+                "agent_steps": steps,
+                "model": model.state_dict(),
+            },
+        )
+
+
 def main(args: Args) -> dict:
     train = TRAIN[args.mode]
     seed_everything(args.seed)
     probe = make_env(args.scenario)
-    counters = info_counters(probe.reset(seed=args.seed)[1])
+    first, info = probe.reset(seed=args.seed)
+    counters = info_counters(info)
     shape = (
         input_channels(args.use_depth),
         probe.observation_space.shape[0],
         int(probe.action_space.n),
         args.hidden,
     )
+    spaces = (probe.observation_space, probe.action_space)
     probe.close()
     csv_path = args.csv or default_csv(args.mode, args.scenario, args.seed)
     log = RunLog(args.mode, csv_path, args.seed, args, counters)
-    env_seconds, busy_seconds = train(args, log, shape)
+    out = Outputs(args, csv_path, first[None], spaces)
+    env_seconds, busy_seconds, model = train(args, log, shape, out)
+    out.save(model, out.final, None, args.total_timesteps)
+    out.scalars.close()
     summary = log.close(args.total_timesteps, env_seconds, busy_seconds)
     print(
         f"done: {args.total_timesteps} steps in {summary['wall_seconds']:.0f} s, "

@@ -194,6 +194,20 @@ def trunk_length(rays: int) -> int:
     return rays - sum(k - 1 for k in CONV_KERNELS)
 
 
+class FromObservation(nn.Module):
+    """A network's action logits from the env's raw observations, (batch, rays, 4): the
+    module a checkpoint holds (``flatland_ma.policies.checkpoint``). ``network`` maps
+    (batch, channels, rays) to the logits, or to a tuple whose first entry they are."""
+
+    def __init__(self, network: nn.Module, channels: int):
+        super().__init__()
+        self.network, self.channels = network, channels
+
+    def forward(self, observation: torch.Tensor) -> torch.Tensor:
+        out = self.network(observation[..., : self.channels].transpose(-1, -2))
+        return out[0] if isinstance(out, tuple) else out
+
+
 class RunningNormalizer:
     """Per-element running mean and standard deviation of the inputs, as keras-rl's
     ``WhiteningNormalizerProcessor`` (standard deviation floored at ``eps``)."""

@@ -33,6 +33,7 @@ import tyro
 from torch import nn
 
 from baselines.common import (
+    FromObservation,
     RunLog,
     conv_trunk,
     default_csv,
@@ -139,6 +140,10 @@ class Agent(nn.Module):
         self.actor = layer_init(nn.Linear(hidden, actions), std=0.01)
         self.critic = layer_init(nn.Linear(hidden, 1), std=1.0)
 
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """The policy's logits."""
+        return self.actor(self.body(x))
+
     def value(self, x: torch.Tensor) -> torch.Tensor:
         return self.critic(self.body(x)).squeeze(-1)
 
@@ -153,19 +158,6 @@ class Agent(nn.Module):
             distribution.entropy(),
             self.critic(h).squeeze(-1),
         )
-
-
-class Policy(nn.Module):
-    """The agent's policy from the env's raw observations, (batch, rays, 4) -> logits: the
-    network a checkpoint holds, playable without this module."""
-
-    def __init__(self, agent: Agent, channels: int):
-        super().__init__()
-        self.agent, self.channels = agent, channels
-
-    def forward(self, observation: torch.Tensor) -> torch.Tensor:
-        x = observation[..., : self.channels].transpose(-1, -2)
-        return self.agent.actor(self.agent.body(x))
 
 
 def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> torch.Tensor:
@@ -283,7 +275,7 @@ def main(args: Args) -> dict:
     scalars = Scalars(run_dir if args.tensorboard else None)
 
     agent = Agent(channels, rays, int(env.single_action_space.n), args.hidden, args.network)
-    policy = Policy(agent, channels)
+    policy = FromObservation(agent, channels)
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
 
     def save(path: Path, update: int) -> None:

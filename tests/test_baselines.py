@@ -267,6 +267,36 @@ def test_a2c_reproduces_exactly_from_a_seed(tmp_path):
     assert [(r["fruits"], r["poisons"]) for r in read_log(other)] != [x[3:] for x in logs[0]]
 
 
+def test_a2c_saves_checkpoints_that_compute_what_the_trained_network_computes(tmp_path):
+    import torch
+
+    from baselines.a3c import ActorCritic
+    from flatland_ma.policies.checkpoint import CheckpointPolicy, read_checkpoint
+
+    out = tmp_path / "seed_0.csv"
+    run_module(
+        "baselines.a3c",
+        *("--mode", "a2c", "--num-workers", "2", "--total-timesteps", "1200"),
+        *("--checkpoint-every", "10", "--csv", str(out)),
+    )
+    run = tmp_path / "seed_0"
+    assert sorted(p.name for p in run.glob("*.pt")) == [f"update_000{k}0.pt" for k in (1, 2, 3)]
+    assert list(run.glob("events.out.tfevents.*"))
+    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    assert saved["algorithm"] == "a2c"
+    model = ActorCritic(3, 64, 3, 128)
+    model.load_state_dict(saved["model"])
+    env = __import__("flatland_ma").parallel_env("fruits_poisons")
+    observation = env.reset(seed=4)[0]["agent_0"]
+    x = torch.from_numpy(observation[:, :3].T.copy())[None]
+    want = torch.softmax(model(x)[0], dim=1)[0].detach().numpy()
+    policy = CheckpointPolicy(tmp_path / "seed_0.pt", seed=1)
+    draws = policy.act_batch(np.repeat(observation[None], 4000, axis=0))
+    assert np.allclose(np.bincount(draws, minlength=3) / 4000, want, atol=0.03)
+    logits = policy.program(torch.from_numpy(observation[None]))
+    assert torch.allclose(logits, model(x)[0], atol=1e-5)
+
+
 def test_dfp_trains_on_the_measurements(tmp_path):
     out = tmp_path / "seed_1.csv"
     run_module(
