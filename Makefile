@@ -31,8 +31,10 @@ test-slow: $(STAMP)
 soak: $(STAMP)
 	$(BIN)/python -m tests.soak
 
+# The single envs beside bare physics, then the batched env at scale and PPO end to end.
 bench: $(STAMP)
 	$(BIN)/flatland-ma bench
+	$(BIN)/flatland-ma bench --scale
 
 # The scenario format's reference and the JSON schema shipped for editors, both written
 # from the models (tests/test_scenario_schema.py checks that they are up to date).

@@ -91,6 +91,19 @@ def main(argv: list[str] | None = None) -> int:
     bench = commands.add_parser("bench", help="steps per second beside bare space.step")
     bench.add_argument("--steps", type=int, default=20_000)
     bench.add_argument("--json", action="store_true", help="print the figures as JSON")
+    bench.add_argument(
+        "--scale",
+        action="store_true",
+        help="instead: the batched env over many worlds, one process and every core, and PPO "
+        "end to end (a few minutes)",
+    )
+    bench.add_argument(
+        "--worlds",
+        default="1,16,256,1024",
+        help="with --scale: the numbers of worlds, comma-separated (default: 1,16,256,1024)",
+    )
+    bench.add_argument("--seconds", type=float, default=3.0, help="with --scale: per row")
+    bench.add_argument("--no-ppo", action="store_true", help="with --scale: skip PPO")
 
     args = parser.parse_args(argv)
     command = {
@@ -274,6 +287,8 @@ def _bench(args) -> int:
     from flatland_ma.bench import format_table, run
     from flatland_ma.bench_sensors import format_costs, sensor_costs
 
+    if args.scale:
+        return _bench_scale(args)
     results = run(args.steps)
     costs = sensor_costs(max(100, args.steps // 4))
     if args.json:
@@ -295,6 +310,26 @@ def _bench(args) -> int:
     print(format_table(results))
     print()
     print(format_costs(costs))
+    return 0
+
+
+def _bench_scale(args) -> int:
+    from flatland_ma import bench_scale
+
+    try:
+        worlds = tuple(int(n) for n in args.worlds.split(","))
+        if any(n < 1 for n in worlds):
+            raise ValueError
+    except ValueError:
+        print(f"flatland-ma bench: --worlds {args.worlds!r}: positive integers", file=sys.stderr)
+        return 2
+    results, training = bench_scale.run(worlds, args.seconds, not args.no_ppo)
+    if args.json:
+        import json
+
+        print(json.dumps(bench_scale.as_json(results, training), indent=1))
+    else:
+        print(bench_scale.format_table(results, training))
     return 0
 
 

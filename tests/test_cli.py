@@ -133,3 +133,38 @@ def test_bench_prints_json_for_machines(capsys):
         assert row["agent_steps_per_s"] == row["env_steps_per_s"] * row["agents"] > 0
         assert row["bare_space_step_per_s"] > 0
     assert figures["sensing"][0]["setup"].startswith("camera")
+
+
+def test_bench_at_scale_measures_one_process_and_every_core(capsys, monkeypatch):
+    import json
+
+    from flatland_ma import bench_scale
+
+    monkeypatch.setattr(bench_scale, "cores", lambda: 2)
+    assert (
+        main(["bench", "--scale", "--worlds", "1,2", "--seconds", "0.1", "--no-ppo", "--json"]) == 0
+    )
+    figures = json.loads(capsys.readouterr().out)
+    rows = {r["environment"]: r for r in figures["batched"]}
+    assert set(rows) == {
+        f"batched {s} x {n}, {p}"
+        for s in ("fruits_poisons", "fruits_poisons_multi")
+        for n, p in ((1, "1 process"), (2, "1 process"), (2, "2 processes"))
+    }
+    for name, row in rows.items():
+        agents = 4 if "multi" in name else 1
+        assert row["agents"] == agents
+        assert row["agent_steps_per_s"] == pytest.approx(agents * row["world_steps_per_s"])
+        assert 0 < row["world_steps_per_s"] < row["bare_space_step_per_s"]
+    assert figures["training"] == []
+    assert main(["bench", "--scale", "--worlds", "0"]) == 2
+    assert "--worlds '0'" in capsys.readouterr().err
+
+
+def test_bench_times_ppo_end_to_end_from_a_checkout(tmp_path):
+    from flatland_ma.bench_scale import bench_ppo
+
+    rate = bench_ppo(steps=512, worlds=1)
+    assert rate.agent_steps_per_s and rate.agent_steps_per_s > 0, rate.note
+    missing = bench_ppo(steps=512, worlds=1, root=tmp_path)
+    assert missing.agent_steps_per_s is None and "checkout" in missing.note

@@ -1,0 +1,150 @@
+"""Throughput at scale: the batched env over 1 to 1024 worlds, in one process and over
+every core, each beside the bare physics of the same worlds; and PPO end to end.
+
+``flatland-ma bench --scale`` prints the table. A row steps the worlds with random actions
+drawn before the clock starts, for about ``seconds`` after a warm-up step (worlds reset
+themselves as their episodes end). The bare rate is ``space.step`` alone on one of the
+row's worlds (x its substeps), times the row's processes: what the physics of those worlds
+would cost if nothing else ran.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from flatland_ma.bench import BenchResult, bare_space_rate
+
+WORLDS = (1, 16, 256, 1024)
+SCENARIOS = ("fruits_poisons", "fruits_poisons_multi")
+"""One and four agents per world, a 64-ray RGB-D camera each."""
+
+
+def cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def bench_worlds(
+    scenario: str, worlds: int, processes: int = 1, seconds: float = 3.0
+) -> BenchResult:
+    """World steps per second of ``worlds`` worlds in one batched env (``processes`` 1)
+    or sharded over ``processes`` processes."""
+    from flatland_ma.envs.shards import ShardedParallelEnv
+    from flatland_ma.envs.vector import BatchedParallelEnv
+
+    if processes == 1:
+        env = BatchedParallelEnv(scenario, num_worlds=worlds, copy=False)
+    else:
+        env = ShardedParallelEnv(scenario, worlds, shards=processes, copy=False)
+    try:
+        env.reset(seed=0)
+        env.action_space.seed(0)
+        actions = [env.action_space.sample() for _ in range(16)]
+        env.step(actions[0])  # warm-up
+        rounds, start = 0, time.perf_counter()
+        while rounds < 3 or time.perf_counter() - start < seconds:
+            env.step(actions[rounds % len(actions)])
+            rounds += 1
+        rate = rounds * worlds / (time.perf_counter() - start)
+        processes, agents = getattr(env, "num_shards", 1), env.agents_per_world
+    finally:
+        env.close()
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+
+    bare = bare_space_rate(FlatlandParallelEnv(scenario), 2000) * processes
+    where = "1 process" if processes == 1 else f"{processes} processes"
+    label = f"batched {scenario} x {worlds}, {where}"
+    return BenchResult(label, agents, rate, bare)
+
+
+@dataclass
+class TrainingRate:
+    label: str
+    agent_steps_per_s: float | None
+    note: str = ""
+
+
+def bench_ppo(steps: int = 65_536, worlds: int = 16, root: Path | None = None) -> TrainingRate:
+    """Agent-steps per second of the baselines' PPO end to end (acting, stepping and
+    learning) on fruits_poisons_multi, torch on every core; measured by running
+    ``python -m baselines.ppo`` from the checkout the package sits in (the baselines are
+    not part of the installed package)."""
+    label = f"PPO end to end, fruits_poisons_multi x {worlds}, {cores()} cores"
+    root = root or Path(__file__).resolve().parent.parent
+    if not (root / "baselines" / "ppo.py").exists():
+        return TrainingRate(label, None, "not measured: baselines/ is in a checkout only")
+    with tempfile.TemporaryDirectory() as out:
+        csv = Path(out) / "seed_0.csv"
+        command = [
+            sys.executable, "-m", "baselines.ppo", "--scenario", "fruits_poisons_multi",
+            "--num-envs", str(worlds), "--total-timesteps", str(steps),
+            "--torch-threads", str(cores()), "--checkpoint-every", "0", "--no-tensorboard",
+            "--csv", str(csv),
+        ]  # fmt: skip
+        done = subprocess.run(command, cwd=root, capture_output=True, text=True)
+        if done.returncode != 0:
+            return TrainingRate(label, None, f"failed: {done.stderr.strip()[-300:]}")
+        summary = json.loads(csv.with_suffix(".json").read_text())
+    return TrainingRate(label, summary["steps"] / summary["wall_seconds"])
+
+
+def run(
+    worlds: tuple[int, ...] = WORLDS, seconds: float = 3.0, ppo: bool = True
+) -> tuple[list[BenchResult], list[TrainingRate]]:
+    results = []
+    for scenario in SCENARIOS:
+        for n in worlds:
+            for processes in sorted({1, min(cores(), n)}):
+                results.append(bench_worlds(scenario, n, processes, seconds))
+    return results, [bench_ppo()] if ppo else []
+
+
+def format_table(results: list[BenchResult], training: list[TrainingRate]) -> str:
+    header = (
+        f"{'batched env':48} {'agents':>6} {'world steps/s':>14} {'agent steps/s':>14} "
+        f"{'bare physics/s':>15} {'cost / bare':>12}"
+    )
+    lines = [header, "-" * len(header)]
+    for r in results:
+        lines.append(
+            f"{r.label:48} {r.agents:>6} {r.env_steps_per_s:>14,.0f} {r.agent_steps_per_s:>14,.0f} "
+            f"{r.bare_steps_per_s:>15,.0f} {1 / r.physics_share:>11.1f}x"
+        )
+    lines.append(
+        "bare physics/s: world-step equivalents of space.step alone on the same worlds, "
+        "on as many cores as the row's processes. cost / bare: time per world-step over the "
+        "bare physics' time."
+    )
+    for t in training:
+        rate = f"{t.agent_steps_per_s:,.0f} agent-steps/s" if t.agent_steps_per_s else t.note
+        lines.append(f"{t.label}: {rate}")
+    return "\n".join(lines)
+
+
+def as_json(results: list[BenchResult], training: list[TrainingRate]) -> dict:
+    return {
+        "batched": [
+            {
+                "environment": r.label,
+                "agents": r.agents,
+                "world_steps_per_s": r.env_steps_per_s,
+                "agent_steps_per_s": r.agent_steps_per_s,
+                "bare_space_step_per_s": r.bare_steps_per_s,
+            }
+            for r in results
+        ],
+        "training": [
+            {"run": t.label, "agent_steps_per_s": t.agent_steps_per_s, "note": t.note}
+            for t in training
+        ],
+        "cores": cores(),
+        "numpy": np.__version__,
+    }
