@@ -6,14 +6,14 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow soak bench docs reference lint clean reproduce reproduce-multi results
+.PHONY: demo test test-slow test-rllib soak bench docs reference lint clean reproduce reproduce-multi results
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet "$(TORCH)" || \
 		$(BIN)/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
-	$(BIN)/python -m pip install --quiet -e ".[dev,train,render]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,train,render,clients]"
 	touch $(STAMP)
 
 demo: $(STAMP)
@@ -25,6 +25,21 @@ test: $(STAMP)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -n auto -m slow
+
+# Ray RLlib in an environment of its own (ray pins gymnasium 1.2.2): baselines/rllib_ppo.py
+# for one iteration on a local Ray instance, and Gymnasium ids in a fresh process.
+RLLIB := .venv-rllib
+$(RLLIB)/.installed: pyproject.toml baselines/requirements-rllib.txt
+	$(PYTHON) -m venv $(RLLIB)
+	$(RLLIB)/bin/python -m pip install --quiet --upgrade pip
+	$(RLLIB)/bin/python -m pip install --quiet "$(TORCH)" || \
+		$(RLLIB)/bin/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
+	$(RLLIB)/bin/python -m pip install --quiet -r baselines/requirements-rllib.txt
+	$(RLLIB)/bin/python -m pip install --quiet -e .
+	touch $(RLLIB)/.installed
+
+test-rllib: $(RLLIB)/.installed
+	$(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests_rllib
 
 # A million agent-steps of fruits_poisons_multi and 500 env creations in one process: RSS
 # and agent-steps/s at start and end, growth after warm-up (tests/soak.py; fails at 5%).
@@ -85,9 +100,9 @@ reproduce-multi: $(STAMP)
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)
-	$(BIN)/ruff check flatland_ma baselines tests scenarios
-	$(BIN)/ruff format --check flatland_ma baselines tests scenarios
+	$(BIN)/ruff check flatland_ma baselines tests tests_rllib benchmarks scenarios
+	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib benchmarks scenarios
 	$(BIN)/pyright
 
 clean:
-	rm -rf $(VENV) demo .pytest_cache
+	rm -rf $(VENV) $(RLLIB) demo .pytest_cache

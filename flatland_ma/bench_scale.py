@@ -33,17 +33,17 @@ def cores() -> int:
 
 
 def bench_worlds(
-    scenario: str, worlds: int, processes: int = 1, seconds: float = 3.0
+    scenario: str, worlds: int, processes: int = 1, seconds: float = 3.0, **overrides
 ) -> BenchResult:
     """World steps per second of ``worlds`` worlds in one batched env (``processes`` 1)
-    or sharded over ``processes`` processes."""
+    or sharded over ``processes`` processes; ``overrides`` as for the envs."""
     from flatland_ma.envs.shards import ShardedParallelEnv
     from flatland_ma.envs.vector import BatchedParallelEnv
 
     if processes == 1:
-        env = BatchedParallelEnv(scenario, num_worlds=worlds, copy=False)
+        env = BatchedParallelEnv(scenario, num_worlds=worlds, copy=False, **overrides)
     else:
-        env = ShardedParallelEnv(scenario, worlds, shards=processes, copy=False)
+        env = ShardedParallelEnv(scenario, worlds, shards=processes, copy=False, **overrides)
     try:
         env.reset(seed=0)
         env.action_space.seed(0)
@@ -59,7 +59,7 @@ def bench_worlds(
         env.close()
     from flatland_ma.envs.parallel import FlatlandParallelEnv
 
-    bare = bare_space_rate(FlatlandParallelEnv(scenario), 2000) * processes
+    bare = bare_space_rate(FlatlandParallelEnv(scenario, **overrides), 2000) * processes
     where = "1 process" if processes == 1 else f"{processes} processes"
     label = f"batched {scenario} x {worlds}, {where}"
     return BenchResult(label, agents, rate, bare)

@@ -78,7 +78,7 @@ def test_overrides_merge_like_a_file_and_are_validated_the_same_way():
     (p,) = info.value.problems
     assert p.source == "<overrides>" and p.line is None and p.path == ("agent", "camera", "rays")
     assert str(p).startswith("<overrides>: agent.camera.rays:")
-    with pytest.raises(ScenarioError, match="unknown key 'n_agent'"):
+    with pytest.raises(ScenarioError, match="unexpected keyword argument 'n_agent'"):
         flatland_ma.parallel_env("fruits_poisons", n_agent=2)
 
 

@@ -117,9 +117,11 @@ def check_keywords(overrides: Mapping, source: str) -> None:
             continue
         hint = difflib.get_close_matches(str(key), allowed, n=1)
         maybe = f" (did you mean {hint[0]!r}?)" if hint else ""
+        # "unexpected keyword argument" as Python says it: clients that probe for optional
+        # keywords (TorchRL's GymEnv and frameskip) match those words.
         message = (
-            f"unknown key {key!r} in the keyword overrides of {source}{maybe}; "
-            f"allowed keys: {', '.join(allowed)}"
+            f"unexpected keyword argument {key!r}: no key of a scenario, in the keyword "
+            f"overrides of {source}{maybe}; allowed keys: {', '.join(allowed)}"
         )
         problems.append(Problem(OVERRIDES, None, (key,), message))
     if problems:
