@@ -228,8 +228,11 @@ class FlatlandParallelEnv(ParallelEnv):
             return spaces.pop()
         return ", ".join(f"{a}: {self.action_spaces[a]}" for a in agents)
 
-    def _advance(self, checked: list) -> tuple[list[int], list[float], list[bool], bool]:
-        """Apply checked actions of the live agents, simulate one step, observe.
+    def _advance(
+        self, checked: list, observe: bool = True
+    ) -> tuple[list[int], list[float], list[bool], bool]:
+        """Apply checked actions of the live agents, simulate one step, observe (unless
+        the caller casts the rays itself: then the sensors are only prepared).
 
         Returns the agents that were live for this step, everyone's rewards and
         terminations, and whether the step limit truncated the episode.
@@ -243,7 +246,10 @@ class FlatlandParallelEnv(ParallelEnv):
         episode.world.step()
         episode.hands.update()
         rewards, terminated = episode.task.evaluate(self.np_random)
-        episode.sensors.observe()
+        if observe:
+            episode.sensors.observe()
+        else:
+            episode.sensors.prepare()
         self.num_steps += 1
         truncated = self.step_limit is not None and self.num_steps >= self.step_limit
         if truncated or any(terminated[i] for i in live):

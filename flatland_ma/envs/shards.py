@@ -280,9 +280,14 @@ class ShardedParallelEnv:
 
 def _serve(pipe, scenario, num_worlds, max_cycles, overrides, slots, buffers, layout) -> None:
     """A shard's process: its worlds, stepped on request, results into shared memory."""
-    try:
+    try:  # the shards are the parallelism: one thread each (and forked: none of numba's)
         batch = BatchedParallelEnv(
-            scenario, num_worlds=num_worlds, max_cycles=max_cycles, copy=False, **overrides
+            scenario,
+            num_worlds=num_worlds,
+            max_cycles=max_cycles,
+            copy=False,
+            parallel=False,
+            **overrides,
         )
         arrays = {name: view[slots] for name, view in _views(buffers, layout).items()}
         pipe.send(("ok", None))

@@ -24,6 +24,9 @@ zeros, its reward 0, and its action is not used; a learner drops those entries.
 
 The arrays returned are copies, unless ``copy=False``: then they are the env's own buffers,
 overwritten by the next ``step`` or ``reset``.
+
+A step acts and simulates world by world, then casts the rays of every world in one call
+of the compiled kernel, spread over numba's threads (``parallel=False``: on one).
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.sensors.suite import WorldsKernel
 
 AUTORESET_MODE = AutoresetMode.NEXT_STEP
 
@@ -83,6 +87,7 @@ class BatchedParallelEnv:
         num_worlds: int = 1,
         max_cycles: int | None = None,
         copy: bool = True,
+        parallel: bool = True,
         **overrides,
     ):
         if isinstance(num_worlds, bool) or not isinstance(num_worlds, int) or num_worlds < 1:
@@ -116,6 +121,9 @@ class BatchedParallelEnv:
         self._counters: dict[str, np.ndarray] = {}
         self._ended = [False] * num_worlds
         """Worlds whose episode ended on the last step: the next step resets them."""
+        self._rays = WorldsKernel(num_worlds, parallel)
+        """Every world's ray kernel arguments: one call casts the rays of all, over every
+        core numba may use unless ``parallel`` is False."""
 
     # -- the loop -----------------------------------------------------------------------
 
@@ -139,19 +147,26 @@ class BatchedParallelEnv:
         self._rewards[:] = 0.0
         self._terminations[:] = False
         self._truncations[:] = False
-        for w, env in enumerate(self.worlds):
-            if self._ended[w]:
-                self._restart(w, env, None)
-                continue
-            base = w * m
-            for j in range(m):  # agents gone before this step are inert from now
-                if self._active[base + j] and j not in env._live:
-                    self._active[base + j] = False
-                    _clear(self._observations, base + j)
-            env.enter()
-            try:
-                live, rewards, terminated, truncated = env._advance(checked[w])
+        advanced, entered = [], []
+        try:
+            # Act and simulate world by world; cast every advanced world's rays in one call.
+            for w, env in enumerate(self.worlds):
+                if self._ended[w]:
+                    self._restart(w, env, None)
+                    continue
+                base = w * m
+                for j in range(m):  # agents gone before this step are inert from now
+                    if self._active[base + j] and j not in env._live:
+                        self._active[base + j] = False
+                        _clear(self._observations, base + j)
+                env.enter()
+                entered.append(env)
+                advanced.append((w, env, *env._advance(checked[w], observe=False)))
+            if advanced:
+                self._rays.observe(np.array([a[0] for a in advanced], np.int64))
+            for w, env, live, rewards, terminated, truncated in advanced:
                 sensors, task = env.running.sensors, env.running.task
+                base = w * m
                 for i in live:
                     slot = base + i
                     _put(self._observations, slot, sensors.observation(i))
@@ -159,9 +174,10 @@ class BatchedParallelEnv:
                     self._terminations[slot] = terminated[i]
                     self._truncations[slot] = truncated
                     self._count(slot, task.info(i))
-            finally:
+                self._ended[w] = not env.agents
+        finally:
+            for env in entered:
                 env.leave()
-            self._ended[w] = not env.agents
         observations = self._out(self._observations)
         return (
             observations,
@@ -179,6 +195,7 @@ class BatchedParallelEnv:
 
     def _restart(self, w: int, env: FlatlandParallelEnv, seed: int | None) -> None:
         observations, infos = env.reset(seed=seed)
+        self._rays.set(w, env.running.sensors)
         base = w * self.agents_per_world
         for j, agent in enumerate(env.possible_agents):
             _put(self._observations, base + j, observations[agent])

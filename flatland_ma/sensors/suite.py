@@ -12,6 +12,7 @@ from collections.abc import Callable
 import numba as nb
 import numpy as np
 from gymnasium import spaces
+from numba.typed import List
 
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.geometry import Geometry
@@ -109,12 +110,22 @@ class Sensors:
     def observe(self) -> None:
         """Pick up what the world changed, read the moving bodies' poses and cast every
         ray of every sensor."""
+        self.prepare()
+        self._kernel(*self._args)
+
+    def prepare(self) -> None:
+        """Everything ``observe`` does before casting the rays (``observe_worlds`` casts
+        several worlds' rays in one call)."""
         geo = self.geometry
         if self.world.changed:
             for entity in self.world.take_changed():
                 geo.update_entity(entity)
         geo.refresh_poses()
-        self._kernel(*self._args)
+
+    @property
+    def kernel_args(self) -> tuple:
+        """The ray kernel's arguments for this world, as ``observe_worlds`` takes them."""
+        return self._args
 
     def observation(self, agent_index: int):
         """A fresh copy of the agent's observation: its one sensor's, or a dict by name."""
@@ -130,3 +141,51 @@ class Sensors:
             reading = sensor.noise.apply(reading, sensor.space, self.rng)  # type: ignore[arg-type]
         self.readings[k] = reading
         return reading
+
+
+@nb.njit(parallel=True, cache=True)
+def _observe_worlds(worlds, which):
+    """The ray kernel over the worlds ``worlds[which[k]]``, spread over numba's threads
+    (each world writes only its own outputs: the results are those of one call each)."""
+    for k in nb.prange(which.shape[0]):
+        a = worlds[which[k]]
+        kernel.observe(a[0], a[1], a[2], a[3], a[4], a[5], a[6])
+
+
+@nb.njit(cache=True)
+def _observe_worlds_serial(worlds, which):
+    """``_observe_worlds`` on one thread."""
+    for k in range(which.shape[0]):
+        a = worlds[which[k]]
+        kernel.observe(a[0], a[1], a[2], a[3], a[4], a[5], a[6])
+
+
+class WorldsKernel:
+    """One kernel call for the rays of many worlds of one scenario: ``set(w, suite)`` when
+    world ``w`` gets a new episode's sensors, ``prepare`` each world's suite, then
+    ``observe(which)`` casts the rays of the worlds ``which`` at once: over every core
+    numba may use (``numba.set_num_threads``) when ``parallel``, else on this thread (a
+    process forked from one that ran numba's threads must not start its own)."""
+
+    def __init__(self, n: int, parallel: bool = True):
+        self.n = n
+        self.parallel = parallel
+        self.worlds = None
+        self._function = None
+
+    def set(self, w: int, suite: Sensors) -> None:
+        args = suite.kernel_args
+        if self.worlds is None:
+            self.worlds = List([args] * self.n)  # type: ignore[operator]  # a class at runtime
+        else:
+            self.worlds[w] = args
+
+    def observe(self, which: np.ndarray) -> None:
+        if self._function is None:
+            signature = (nb.typeof(self.worlds), nb.typeof(which))
+            function = _observe_worlds if self.parallel else _observe_worlds_serial
+            key = (function, signature)
+            if key not in _KERNELS:
+                _KERNELS[key] = function.compile(signature)  # type: ignore[attr-defined]
+            self._function = _KERNELS[key]
+        self._function(self.worlds, which)
