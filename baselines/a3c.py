@@ -203,13 +203,13 @@ def a2c_loss(model: ActorCritic, x, actions, returns, args: Args) -> torch.Tenso
 def worker(rank: int, args: Args, shape: tuple, shared_model: ActorCritic, steps, messages):
     """One A3C actor-learner: sync, act t_max steps, push gradients to the shared model."""
     seed_everything(args.seed * args.num_workers + rank)
+    start = time.perf_counter()  # before the env's first reset, which its seconds include
     actors = Actors(args, [rank])
     model = ActorCritic(*shape)
     # Each actor-learner has its own Adam state, as in universe-starter-agent.
     optimizer = torch.optim.Adam(
         shared_model.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
     )
-    start = time.perf_counter()
 
     def on_episode(offset, episode_return, info):
         messages.put(("episode", steps.value + offset, episode_return, dict(info)))
