@@ -109,8 +109,9 @@ class AgentBody(Entity):
         v = self.max_speed
         vx, vy = v * (forward * c - lateral * s), v * (forward * s + lateral * c)
         w = self.max_turn_rate * turn
-        self.control.velocity = (vx, vy)
-        self.control.angular_velocity = w
+        control = self.control
+        _set(control, "velocity", (vx, vy))
+        _set(control, "angular_velocity", w)
         self.target = (vx, vy, w)
 
     def drive(self) -> None:
@@ -122,7 +123,7 @@ class AgentBody(Entity):
         if links and self.touching:
             return
         if not links:
-            body.angular_velocity += dw
+            _set(body, "angular_velocity", body.angular_velocity + dw)
             if self.touching:
                 return
         bvx, bvy = body.velocity
@@ -131,7 +132,7 @@ class AgentBody(Entity):
         if dv > self.max_dv:
             dvx, dvy = dvx * self.max_dv / dv, dvy * self.max_dv / dv
         if not links:
-            body.velocity = (bvx + dvx, bvy + dvy)
+            _set(body, "velocity", (bvx + dvx, bvy + dvy))
             return
         # Read each body once: position of its origin (the joint), angle, velocity, spin.
         bx, by = body.position
