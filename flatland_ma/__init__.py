@@ -25,6 +25,8 @@ if TYPE_CHECKING:
     from flatland_ma.envs.aec import env
     from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.envs.parallel import FlatlandParallelEnv as parallel_env
+    from flatland_ma.envs.shards import ShardedParallelEnv
+    from flatland_ma.envs.vector import BatchedParallelEnv
 
 try:  # the installed distribution's version: pyproject.toml is its one source
     __version__ = version("flatland-ma")
@@ -39,6 +41,8 @@ _LAZY = {
     "parallel_env": ("flatland_ma.envs.parallel", "FlatlandParallelEnv"),
     "env": ("flatland_ma.envs.aec", "env"),
     "check_scenario": ("flatland_ma.build.feasibility", "check_scenario"),
+    "BatchedParallelEnv": ("flatland_ma.envs.vector", "BatchedParallelEnv"),
+    "ShardedParallelEnv": ("flatland_ma.envs.shards", "ShardedParallelEnv"),
 }
 """Names imported on first use: ``parallel_env(scenario="fruits_poisons",
 render_mode=None, max_cycles=None, **overrides)`` is the parallel env's class."""
@@ -55,6 +59,8 @@ def __getattr__(name: str):
 
 __all__ = [
     "GYM_IDS",
+    "BatchedParallelEnv",
+    "ShardedParallelEnv",
     "FlatlandParallelEnv",
     "__version__",
     "check_scenario",

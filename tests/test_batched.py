@@ -188,3 +188,21 @@ def test_every_scenario_batches_with_the_infos_of_separate_envs(scenario):
             for w, env in enumerate(envs)
         ]
     batch.close()
+
+
+def test_the_batched_envs_are_reachable_from_the_package():
+    import flatland_ma.vector as vector
+
+    assert flatland_ma.BatchedParallelEnv is vector.BatchedParallelEnv is BatchedParallelEnv
+    assert flatland_ma.ShardedParallelEnv is vector.ShardedParallelEnv
+    assert vector.FlatlandVectorEnv is FlatlandVectorEnv
+
+
+def test_one_kernel_call_on_one_thread_gives_what_the_threads_give():
+    threads = BatchedParallelEnv("fruits_poisons_multi", num_worlds=3, max_cycles=20)
+    one = BatchedParallelEnv("fruits_poisons_multi", num_worlds=3, max_cycles=20, parallel=False)
+    assert data_equivalence(threads.reset(seed=2), one.reset(seed=2), exact=True)
+    rng = np.random.default_rng(4)
+    for _ in range(45):
+        actions = rng.integers(0, 3, 12)
+        assert data_equivalence(threads.step(actions), one.step(actions), exact=True)

@@ -1,0 +1,14 @@
+"""Many worlds at once: the batched env (``BatchedParallelEnv``), the same worlds over
+processes (``ShardedParallelEnv``), and the Gymnasium vector env of a single-agent
+scenario (``FlatlandVectorEnv``, what ``gymnasium.make_vec`` builds)::
+
+    from flatland_ma.vector import BatchedParallelEnv
+    batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=256)
+
+They live in ``flatland_ma.envs.vector`` and ``flatland_ma.envs.shards``.
+"""
+
+from flatland_ma.envs.shards import ShardedParallelEnv
+from flatland_ma.envs.vector import AUTORESET_MODE, BatchedParallelEnv, FlatlandVectorEnv
+
+__all__ = ["AUTORESET_MODE", "BatchedParallelEnv", "FlatlandVectorEnv", "ShardedParallelEnv"]
