@@ -182,7 +182,9 @@ def _demo(args) -> int:
     print(f"fruits_poisons: {env.spec.description}")
     print(f"{args.episodes} episodes of {env.spec.episode.max_steps} steps per policy\n")
     policies = {
-        "greedy (scripted)": lambda agent: GreedyForager(env.spec),
+        "greedy (scripted)": lambda agent: GreedyForager(
+            env.spec, env.possible_agents.index(agent)
+        ),
         "random (uniform)": lambda agent: RandomPolicy(env.action_space(agent), seed=0),
     }
     print(f"{'policy':20} {'mean return':>12} {'std':>7} {'fruits':>7} {'poisons':>8}")

@@ -29,6 +29,11 @@ def test_aec_api(scenario):
             # environments with one are listed by name), and several sensors give one.
             warnings.filterwarnings("ignore", "Observation is not a NumPy array")
             warnings.filterwarnings("ignore", "Observation space for each agent probably")
+        if env.unwrapped.spec.heterogeneous:
+            # and this one, which is what a scenario of different bodies means.
+            warnings.filterwarnings("ignore", "Agents have different observation space sizes")
+            warnings.filterwarnings("ignore", "Agents have different action space sizes")
+            warnings.filterwarnings("ignore", "Observations are different shapes")
         api_test(env, num_cycles=100)
 
 

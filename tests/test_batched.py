@@ -163,7 +163,12 @@ def test_multi_agent_scenarios_are_refused_by_the_gymnasium_vector_env():
         FlatlandVectorEnv("fruits_poisons_multi", num_envs=2)
 
 
-@pytest.mark.parametrize("scenario", flatland_ma.list_scenarios())
+ALIKE = [s for s in flatland_ma.list_scenarios() if not flatland_ma.load_scenario(s).heterogeneous]
+"""Scenarios whose agents share one body (a batch needs one space for every slot;
+tests/test_heterogeneous.py checks that the others are refused)."""
+
+
+@pytest.mark.parametrize("scenario", ALIKE)
 def test_every_scenario_batches_with_the_infos_of_separate_envs(scenario):
     """Two worlds, three steps: every info entry of every slot is the separate env's,
     numbers in number arrays and anything else (key_door's tuple of keys) as objects."""

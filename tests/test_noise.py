@@ -27,9 +27,8 @@ def _readings(env, x=150.0, y=150.0, heading=0.0):
 def test_noise_is_off_unless_the_file_asks_for_it():
     for name in flatland_ma.list_scenarios():
         env = flatland_ma.parallel_env(name)
-        specs = env.spec.agent.sensor_specs
-        for own in env._sensors:
-            for spec, sensor in zip(specs, own):
+        for agent, own in zip(env.spec.agent_specs, env._sensors):
+            for spec, sensor in zip(agent.sensor_specs, own):
                 assert (sensor.noise is None) == (spec.noise is None), (name, sensor.name)
 
 

@@ -90,6 +90,17 @@ def first_team_return(env, make_first, make_others, episodes=4) -> float:
     return total / count
 
 
+SOLVERS = {
+    "planner": PlannerPolicy,
+    "greedy": lambda env, agent: GreedyForager(env.spec, env.possible_agents.index(agent)),
+    "carrier": CarrierPolicy,
+    "sniffer": lambda env, agent: Sniffer(
+        env.spec, seed=int(agent.split("_")[1]), agent=env.possible_agents.index(agent)
+    ),
+}
+"""The reference solvers by name: maker(env, agent)."""
+
+
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_the_solver_beats_random_play_by_far(scenario):
     reference = reference_of(scenario)
@@ -102,14 +113,18 @@ def test_the_solver_beats_random_play_by_far(scenario):
     if reference.solver == "carrier_vs_random":
         solved = first_team_return(env, lambda a: CarrierPolicy(env, a), random, episodes)
         baseline = first_team_return(env, random, random, episodes)
+    elif reference.solver == "teams":
+        roles = {team.name: solver for team, solver in zip(env.spec.teams, reference.teams)}
+
+        def by_team(agent):
+            index = env.possible_agents.index(agent)
+            return SOLVERS[roles[env.spec.team_of(index).name]](env, agent)
+
+        solved = evaluate(env, by_team, episodes=episodes).mean
+        baseline = evaluate(env, random, episodes=episodes).mean
     else:
-        makers = {
-            "planner": lambda agent: PlannerPolicy(env, agent),
-            "greedy": lambda agent: GreedyForager(env.spec),
-            "carrier": lambda agent: CarrierPolicy(env, agent),
-            "sniffer": lambda agent: Sniffer(env.spec, seed=int(agent.split("_")[1])),
-        }
-        solved = evaluate(env, makers[reference.solver], episodes=episodes).mean
+        solver = SOLVERS[reference.solver]
+        solved = evaluate(env, lambda agent: solver(env, agent), episodes=episodes).mean
         baseline = evaluate(env, random, episodes=episodes).mean
     assert solved >= minimum, solved
     assert solved >= baseline + 0.8 * minimum, (solved, baseline)

@@ -11,7 +11,7 @@ generator, in that order; then the sensors and the task.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -55,6 +55,21 @@ class Episode:
     doors: list[Door]
     eyes: list[Entity]
     """Each sensor's carrier (agent by agent, sensor by sensor): its base, or its head."""
+    _grids: dict[float, NavGrid] = field(default_factory=dict, repr=False)
+
+    def grid_for(self, radius: float) -> NavGrid:
+        """``grid`` for agents of ``radius``: where their centre fits (the episode's grid
+        is the slimmest agent's; in a scenario of one body, the same)."""
+        if radius == self.grid.clearance:
+            return self.grid
+        if radius not in self._grids:
+            grid = NavGrid(self.grid.size, radius, self.grid.cell)
+            for entity in self.world.entities:
+                if entity.blocks_paths:
+                    for shape in entity.shapes:
+                        grid.block_shape(shape)
+            self._grids[radius] = grid
+        return self._grids[radius]
 
 
 @dataclass
@@ -159,26 +174,27 @@ def populate(
 
 def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list[AgentBody]:
     bodies = []
-    reach = footprint(spec.agent, make_parts(spec.agent))
     groups = spawn_groups(spec)
+    reaches = {g.team: footprint(g.agent, make_parts(g.agent)) for g in groups}
     placed = {g.team: 0 for g in groups}
     for i in range(spec.n_agents):
         spawn, team = spec.spawn_of(i), spec.team_of(i)
         group = spawn_group_of(spec, groups, i)
         k = placed[group.team]
         placed[group.team] += 1
-        x, y = _place(placer, rng, reach, spawn.area, group.fault_path(k), "agent")
+        x, y = _place(placer, rng, reaches[group.team], spawn.area, group.fault_path(k), "agent")
         angle = (
             float(rng.uniform(-math.pi, math.pi))
             if spawn.heading is None
             else math.radians(spawn.heading)
         )
+        agent = spec.agent_of(i)
         color = (
             team.color
             if team is not None and team.color is not None
-            else spec.agent.colors[i % len(spec.agent.colors)]
+            else agent.colors[i % len(agent.colors)]
         )
-        body = make_agent(spec.agent, i, (x, y), angle, color, world.substep_dt, world.dt)
+        body = make_agent(agent, i, (x, y), angle, color, world.substep_dt, world.dt)
         bodies.append(world.add(body))
         for link in body.links:
             world.add(link)

@@ -17,7 +17,7 @@ import numpy as np
 
 from flatland_ma.build.bodies import footprint, make_parts
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
-from flatland_ma.scenario.spec_agent import SpawnSpec
+from flatland_ma.scenario.spec_agent import AgentSpec, SpawnSpec
 from flatland_ma.world.placement import Placer
 
 MAX_COVER = 0.3
@@ -26,44 +26,60 @@ MAX_COVER = 0.3
 
 @dataclass(frozen=True)
 class SpawnGroup:
-    """Agents that start in one spawn area: those of a team with its own, or the rest."""
+    """Agents that start in one spawn area with one body: those of a team with a spawn or
+    a body of its own, or the rest."""
 
     team: int | None
     spawn: SpawnSpec
     size: int
     count_path: KeyPath
     """The key that says how many agents start there."""
+    agent: AgentSpec
+    """Their body."""
+    spawn_path: KeyPath = ("agent", "spawn")
+    """Where their ``spawn`` is written."""
+    body_path: KeyPath = ("agent",)
+    """Where their body is written."""
 
     @property
     def area_path(self) -> KeyPath | None:
         """The key of the spawn area, if one is given."""
         if self.spawn.area is None:
             return None
-        if self.team is None:
-            return ("agent", "spawn", "area")
-        return ("teams", self.team, "spawn", "area")
+        return self.spawn_path + ("area",)
 
     def fault_path(self, k: int) -> KeyPath:
         """Where to report that its ``k``-th agent found no room."""
         if self.area_path is not None:
             return self.area_path
-        return ("agent", "radius") if k == 0 else self.count_path
+        return self.body_path + ("radius",) if k == 0 else self.count_path
+
+
+def _own_group(team) -> bool:
+    return team.spawn is not None or team.agent is not None
 
 
 def spawn_groups(spec) -> list[SpawnGroup]:
     """The spawn groups of a scenario, the agents' own spawn (if anyone uses it) first."""
-    own = [t for t, team in enumerate(spec.teams) if team.spawn is not None]
+    own = [t for t, team in enumerate(spec.teams) if _own_group(team)]
     rest = spec.n_agents - sum(spec.teams[t].size for t in own)
-    groups = [SpawnGroup(None, spec.agent.spawn, rest, ("n_agents",))] if rest else []
-    for t in own:
-        team = spec.teams[t]
-        groups.append(SpawnGroup(t, team.spawn, team.size, ("teams", t, "size")))
+    groups = [SpawnGroup(None, spec.agent.spawn, rest, ("n_agents",), spec.agent)] if rest else []
+    first = 0
+    for t, team in enumerate(spec.teams):
+        if t in own:
+            body_path = ("teams", t, "agent") if team.agent is not None else ("agent",)
+            spawn_path = ("teams", t, "spawn") if team.spawn is not None else body_path + ("spawn",)
+            spawn, body = spec.spawn_of(first), spec.agent_of(first)
+            groups.append(
+                SpawnGroup(t, spawn, team.size, ("teams", t, "size"), body, spawn_path, body_path)
+            )
+        first += team.size
     return groups
 
 
 def spawn_group_of(spec, groups: list[SpawnGroup], agent: int) -> SpawnGroup:
     team = spec.team_of(agent)
-    index = spec.teams.index(team) if team is not None and team.spawn is not None else None
+    index = spec.teams.index(team) if team is not None and _own_group(team) else None
     return next(g for g in groups if g.team == index)
 
 
@@ -156,16 +172,15 @@ def _where(draw) -> str:
 
 
 def _draws(spec) -> list[_Draw]:
-    reach = footprint(spec.agent, make_parts(spec.agent))
     draws = [
         _Draw(
             "agent",
             group.size,
-            reach,
+            footprint(group.agent, make_parts(group.agent)),
             group.spawn.area,
             group.area_path,
             group.count_path,
-            ("agent", "radius"),
+            group.body_path + ("radius",),
         )
         for group in spawn_groups(spec)
     ]

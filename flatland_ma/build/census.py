@@ -25,8 +25,13 @@ def state_counts(spec: ScenarioSpec) -> StateCounts:
 
 
 def world_state(spec: ScenarioSpec) -> WorldState:
-    agent = spec.agent
-    return WorldState(spec.arena.size, state_counts(spec), agent.max_speed, agent.max_turn_rate)
+    agents = spec.agent_specs
+    return WorldState(
+        spec.arena.size,
+        state_counts(spec),
+        [a.max_speed for a in agents],
+        [a.max_turn_rate for a in agents],
+    )
 
 
 def state_entities(episode: Episode) -> tuple[list, list, list, list]:

@@ -55,12 +55,16 @@ def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> Sce
 
 def check_parts(spec: ScenarioSpec) -> None:
     """Agents with their parts fit in the arena; no part can cross a wall in a substep."""
-    agent = spec.agent
+    for body_path, agent, _ in spec.agent_kinds():
+        _check_body(spec, body_path, agent)
+
+
+def _check_body(spec: ScenarioSpec, body_path, agent) -> None:
     parts = make_parts(agent)
     width, height = spec.arena.size
     reach = footprint(agent, parts)
     if 2 * reach >= min(width, height):
-        path = ("agent", "arms") if agent.arms else ("agent", "head")
+        path = body_path + (("arms",) if agent.arms else ("head",))
         raise SpecError(
             path,
             f"agents reaching {reach:g} from their centre (with their parts) do not fit in "
@@ -84,7 +88,7 @@ def check_parts(spec: ScenarioSpec) -> None:
 def check_layout(spec: ScenarioSpec) -> None:
     """Build with a few fixed seeds, checking there is room to spare for what is placed at
     random: raise ``SpecError`` if the scenario cannot be built reliably."""
-    sensors = [make_sensors(spec.agent) for _ in range(spec.n_agents)]
+    sensors = [make_sensors(agent) for agent in spec.agent_specs]
     for seed in range(CHECK_SEEDS):
         rng = np.random.default_rng(seed)
         site = lay_ground(spec, rng)

@@ -88,7 +88,9 @@ class Ground:
         self._build(self.walls, self.door_pieces, check=False)
         for i, obstacle in enumerate(spec.obstacles):
             self.place_clear(make_obstacle(obstacle, world.space), ("obstacles", i))
-        grid = NavGrid(spec.arena.size, spec.agent.radius)
+        # Free for the slimmest agent: every place some agent can go (planners that drive a
+        # wider one plan on ``Episode.grid_for`` its radius).
+        grid = NavGrid(spec.arena.size, min(a.radius for _, a, _ in spec.agent_kinds()))
         for entity in world.entities:
             if entity.blocks_paths:
                 for shape in entity.shapes:

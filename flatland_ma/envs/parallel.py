@@ -73,10 +73,8 @@ class FlatlandParallelEnv(ParallelEnv):
         self.possible_agents = [f"agent_{i}" for i in range(spec.n_agents)]
         self.agents: list[str] = []
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
-        self._actuators = [
-            Actuator(spec.agent.actions, make_parts(spec.agent)) for _ in self.possible_agents
-        ]
-        self._sensors = [make_sensors(spec.agent) for _ in self.possible_agents]
+        self._actuators = [Actuator(agent.actions, make_parts(agent)) for agent in spec.agent_specs]
+        self._sensors = [make_sensors(agent) for agent in spec.agent_specs]
         self.action_spaces = {a: act.space for a, act in zip(self.possible_agents, self._actuators)}
         self.observation_spaces = {
             a: observation_space(own) for a, own in zip(self.possible_agents, self._sensors)

@@ -109,7 +109,11 @@ class BatchedParallelEnv:
                 first.action_space(agent) != self.single_action_space
             ):
                 raise ValueError(
-                    f"{agent} has other spaces than {agents[0]}: one batch needs agents alike"
+                    f"{agent} observes {first.observation_space(agent)} and acts in "
+                    f"{first.action_space(agent)}, {agents[0]} observes "
+                    f"{self.single_observation_space} and acts in {self.single_action_space}: "
+                    "a batch's slots share one space (one policy); pad them to one with "
+                    "SuperSuit (docs/integrations.md) or step these agents' worlds apart"
                 )
         self.observation_space = batch_space(self.single_observation_space, self.num_slots)
         self.action_space = batch_space(self.single_action_space, self.num_slots)

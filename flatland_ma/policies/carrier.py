@@ -35,19 +35,20 @@ class CarrierPolicy:
         self.index = env.possible_agents.index(agent)
         self.fallback = PlannerPolicy(env, agent)
         spec = env.spec
-        if spec.agent.actions != "discrete":
+        body = spec.agent_of(self.index)
+        if body.actions != "discrete":
             raise ValueError(
                 "CarrierPolicy drives discrete bodies only (agent.actions: discrete); "
                 f"this scenario's agents act through {env.action_space(agent)}"
             )
         names = env.action_names(agent)
         self.ids = {name: names.index(name) for name in names}
-        self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
-        self.radius = spec.agent.radius
-        arm, self.hand, grip = _carrying_arm(spec.agent)
+        self.turn_step = math.radians(body.max_turn_rate) * spec.physics.dt
+        self.radius = body.radius
+        arm, self.hand, grip = _carrying_arm(body)
         self.reach = sum(s.length for s in arm.segments) if arm else 0.0
         # How far its longest arm reaches: kept off the object while walking round it.
-        self.span = max((sum(s.length for s in a.segments) for a in spec.agent.arms), default=0.0)
+        self.span = max((sum(s.length for s in a.segments) for a in body.arms), default=0.0)
         if grip is not None:  # that hand's actions, e.g. "arm1_grasp" with several hands
             self.ids["grasp"], self.ids["release"] = (self.ids[name] for name in grip)
         team = spec.team_of(self.index)
@@ -139,7 +140,7 @@ class CarrierPolicy:
 
     def _walk(self, episode, me, thing, spot):
         """One step along the shortest path to ``spot``, going round the object."""
-        grid = episode.grid.copy()
+        grid = episode.grid_for(self.radius).copy()
         grid.block_shape(thing.shapes[0], extra=self.span + 4.0)  # keep the arms off it
         x, y = me.body.position
         here = grid.cell_of(x, y)

@@ -44,10 +44,12 @@ DETOUR_LENGTHS = (20.0, 40.0, 60.0, 90.0)
 
 
 class GreedyForager:
-    def __init__(self, spec: ScenarioSpec):
+    def __init__(self, spec: ScenarioSpec, agent: int = 0):
+        """Drives agent number ``agent`` of ``spec`` (its body, camera and actions)."""
+        body = spec.agent_of(agent)
         found = [
             k
-            for k, s in enumerate(spec.agent.sensor_specs)
+            for k, s in enumerate(body.sensor_specs)
             if isinstance(s, CameraSpec) and {"rgb", "depth"} <= set(s.channels)
         ]
         if not found:
@@ -55,10 +57,10 @@ class GreedyForager:
                 "the greedy forager reads a camera's colour and depth: the agent has none"
             )
         k = found[0]  # it reads the first camera's image
-        camera_spec = spec.agent.sensor_specs[k]
+        camera_spec = body.sensor_specs[k]
         assert isinstance(camera_spec, CameraSpec)
-        camera = make_sensors(spec.agent)[k]
-        self.key = camera.name if len(spec.agent.sensor_specs) > 1 else None
+        camera = make_sensors(body)[k]
+        self.key = camera.name if len(body.sensor_specs) > 1 else None
         """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
         widths = {"rgb": 3, "depth": 1, "semantic": 6 if camera_spec.semantic == "onehot" else 1}
         starts = dict(
@@ -71,15 +73,15 @@ class GreedyForager:
         self.ux, self.uy = np.cos(self.angles), np.sin(self.angles)
         self.range = camera_spec.range
         self.linear = camera_spec.falloff == "linear"
-        self.discrete = spec.agent.actions == "discrete"
-        self.motion = BaseMotion(spec.agent)
+        self.discrete = body.actions == "discrete"
+        self.motion = BaseMotion(body)
         self.good = np.array([i.color for i in spec.items if i.reward > 0], np.float64)
         self.bad = np.array([i.color for i in spec.items if i.reward < 0], np.float64)
         self.neutral = np.array([i.color for i in spec.items if i.reward == 0], np.float64)
         self.item_radius = max((i.radius for i in spec.items), default=0.0)
-        self.radius = spec.agent.radius
-        self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
-        self.step_length = spec.agent.max_speed * spec.physics.dt
+        self.radius = body.radius
+        self.turn_step = math.radians(body.max_turn_rate) * spec.physics.dt
+        self.step_length = body.max_speed * spec.physics.dt
         ray_spacing = math.radians(camera_spec.fov) / camera_spec.rays
         self.aim_tolerance = self.turn_step / 2 + ray_spacing
         """Facing a point this closely is enough: ray sampling can't place it better."""

@@ -14,10 +14,12 @@ from flatland_ma.policies.rollout import RandomPolicy
 from flatland_ma.policies.sniffer import Sniffer
 
 SHIPPED: dict[str, Callable] = {
-    "greedy": lambda env, agent, seed: GreedyForager(env.spec),
+    "greedy": lambda env, agent, seed: GreedyForager(env.spec, env.possible_agents.index(agent)),
     "planner": lambda env, agent, seed: PlannerPolicy(env, agent),
     "carrier": lambda env, agent, seed: CarrierPolicy(env, agent),
-    "sniffer": lambda env, agent, seed: Sniffer(env.spec, seed=seed),
+    "sniffer": lambda env, agent, seed: Sniffer(
+        env.spec, seed=seed, agent=env.possible_agents.index(agent)
+    ),
     "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
 }
 """The shipped policies: name -> maker(env, agent, seed)."""

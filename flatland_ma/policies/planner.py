@@ -31,9 +31,11 @@ class PlannerPolicy:
         self.env = env
         self.index = env.possible_agents.index(agent)
         spec = env.spec
-        self.discrete = spec.agent.actions == "discrete"
-        self.motion = BaseMotion(spec.agent)
-        self.turn_step = math.radians(spec.agent.max_turn_rate) * spec.physics.dt
+        body = spec.agent_of(self.index)
+        self.discrete = body.actions == "discrete"
+        self.motion = BaseMotion(body)
+        self.radius = body.radius
+        self.turn_step = math.radians(body.max_turn_rate) * spec.physics.dt
         self.aim = self.turn_step * 0.6
         self.reset()
 
@@ -68,7 +70,10 @@ class PlannerPolicy:
         else:
             return 0.0, 1.0  # nothing to do: look around
         to_goal = grid.distances(goal)
-        waypoint = _descend(to_goal, here, LOOKAHEAD)
+        # LOOKAHEAD steps of a grid made for this agent (cells half its radius): on the
+        # finer grid of a slimmer agent's scenario, as far in units.
+        steps = max(LOOKAHEAD, round(LOOKAHEAD * self.radius / (2 * grid.cell)))
+        waypoint = _descend(to_goal, here, steps)
         wx, wy = grid.centre(*waypoint) if waypoint != here else self._target_point
         angle = _wrap(math.atan2(wy - y, wx - x) - me.angle)
         if abs(angle) > self.aim:
@@ -98,7 +103,7 @@ class PlannerPolicy:
         self._last = pose
 
     def _planning_grid(self, episode, avoid: bool):
-        grid = episode.grid.copy()
+        grid = episode.grid_for(self.radius).copy()
         record = episode.task.records[self.index]
         for door in episode.doors:
             if door.blocks(record.keys):  # e.g. locked, or a hinged one swung aside

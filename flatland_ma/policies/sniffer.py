@@ -37,13 +37,15 @@ WANDER_TURNS = 0.1
 
 
 class Sniffer:
-    def __init__(self, spec: ScenarioSpec, seed: int | None = None):
-        found = [k for k, s in enumerate(spec.agent.sensor_specs) if isinstance(s, SmellSpec)]
+    def __init__(self, spec: ScenarioSpec, seed: int | None = None, agent: int = 0):
+        """Drives agent number ``agent`` of ``spec`` (its body, smell and actions)."""
+        body = spec.agent_of(agent)
+        found = [k for k, s in enumerate(body.sensor_specs) if isinstance(s, SmellSpec)]
         if not found:
             raise ValueError("the sniffer reads a smell sensor: the agent has none")
-        smell = spec.agent.sensor_specs[found[0]]
+        smell = body.sensor_specs[found[0]]
         assert isinstance(smell, SmellSpec)
-        several = len(spec.agent.sensor_specs) > 1
+        several = len(body.sensor_specs) > 1
         self.key = (smell.name or smell.type) if several else None
         """The smell's entry in a ``Dict`` observation (None: the observation is it)."""
         rewards = {item.name: item.reward for item in spec.items}
@@ -52,7 +54,7 @@ class Sniffer:
             [-1.0 if s is not None and rewards[s] < 0 else 1.0 for s in sources], np.float64
         )
         """How each channel counts: +1 a good group (or every item), -1 a bad one."""
-        self.motion = BaseMotion(spec.agent)
+        self.motion = BaseMotion(body)
         self.rng = np.random.default_rng(seed)
         self.reset()
 

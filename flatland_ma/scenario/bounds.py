@@ -58,9 +58,9 @@ def _check_areas(spec: ScenarioSpec) -> None:
         for k, (x, y) in enumerate(item.positions or ()):
             if not inside(x - item.radius, y - item.radius, x + item.radius, y + item.radius):
                 raise SpecError(("items", i, "positions", k), f"item lies {where}")
-    spawn = spec.agent.spawn.area
-    if spawn is not None and not inside(*spawn):
-        raise SpecError(("agent", "spawn", "area"), f"spawn area lies {where}")
+    for path, agent, _ in spec.agent_kinds():
+        if agent.spawn.area is not None and not inside(*agent.spawn.area):
+            raise SpecError(path + ("spawn", "area"), f"spawn area lies {where}")
     for i, team in enumerate(spec.teams):
         if team.spawn is not None and team.spawn.area is not None and not inside(*team.spawn.area):
             raise SpecError(("teams", i, "spawn", "area"), f"spawn area lies {where}")
@@ -117,12 +117,12 @@ def _check_fit(spec: ScenarioSpec) -> None:
     checked when the parts are known: ``build.feasibility``)."""
     width, height = spec.arena.size
     room = min(width, height)
-    radius = spec.agent.radius
-    if 2 * radius >= room:
-        raise SpecError(
-            ("agent", "radius"),
-            f"agents of radius {radius:g} do not fit in the {width:g} x {height:g} arena",
-        )
+    for path, agent, _ in spec.agent_kinds():
+        if 2 * agent.radius >= room:
+            raise SpecError(
+                path + ("radius",),
+                f"agents of radius {agent.radius:g} do not fit in the {width:g} x {height:g} arena",
+            )
     for g, item in enumerate(spec.items):
         if 2 * item.radius >= room:
             raise SpecError(
@@ -142,11 +142,12 @@ def _check_mazes(spec: ScenarioSpec) -> None:
             continue  # no inner walls
         thickness = gen.thickness if gen.thickness is not None else spec.arena.wall.thickness
         passage = min(width / cols, height / rows) - thickness
-        if passage <= 2 * spec.agent.radius:
+        widest = max(2 * agent.radius for _, agent, _ in spec.agent_kinds())
+        if passage <= widest:
             raise SpecError(
                 path,
                 f"maze cells of {gen.cell:g} leave passages {passage:.3g} wide between walls "
-                f"{thickness:g} thick: agents {2 * spec.agent.radius:g} across cannot pass",
+                f"{thickness:g} thick: agents {widest:g} across cannot pass",
             )
 
 

@@ -107,13 +107,13 @@ def _shapes(spec: ScenarioSpec) -> _Total:
             total.add(path, 3 * shared)  # two pieces of wall and a door in each
         else:
             total.add(path + ("count",), gen.count)
-    agent = spec.agent
-    parts = (
-        1
-        + (agent.head is not None)
-        + sum(len(a.segments) + (a.grasper is not None) for a in agent.arms)
-    )
-    total.add(("n_agents",), spec.n_agents * parts)
+    for path, agent, count in spec.agent_kinds():
+        parts = (
+            1
+            + (agent.head is not None)
+            + sum(len(a.segments) + (a.grasper is not None) for a in agent.arms)
+        )
+        total.add(("n_agents",) if path == ("agent",) else path, count * parts)
     return total
 
 

@@ -74,13 +74,14 @@ def check_names(spec: ScenarioSpec) -> None:
             ("episode", "end_when_eaten"),
             f"no item group {spec.episode.end_when_eaten!r}; groups: {groups}",
         )
-    for k, sensor in enumerate(spec.agent.sensor_specs):
-        for j, source in enumerate(getattr(sensor, "sources", None) or ()):
-            if source not in groups:
-                raise SpecError(
-                    ("agent", "sensors", k, "sources", j),
-                    f"no item group {source!r} to smell; groups: {groups}",
-                )
+    for path, agent, _ in spec.agent_kinds():
+        for k, sensor in enumerate(agent.sensor_specs):
+            for j, source in enumerate(getattr(sensor, "sources", None) or ()):
+                if source not in groups:
+                    raise SpecError(
+                        path + ("sensors", k, "sources", j),
+                        f"no item group {source!r} to smell; groups: {groups}",
+                    )
 
 
 def wall_thicknesses(spec: ScenarioSpec) -> list[tuple[KeyPath, float]]:

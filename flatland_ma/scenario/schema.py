@@ -154,6 +154,25 @@ class ScenarioSpec(Spec):
     _origin: tuple[str, dict] = PrivateAttr(default=("<spec>", {}))
     """The file it was read from and where each key path was written (see ``locate``)."""
 
+    @model_validator(mode="before")
+    @classmethod
+    def _team_bodies(cls, data):
+        """A team's ``agent`` mapping takes the keys it leaves out from the top-level one."""
+        if not isinstance(data, dict) or not isinstance(data.get("teams"), (list, tuple)):
+            return data
+        base = data.get("agent", {})
+        if isinstance(base, AgentSpec):
+            base = {key: getattr(base, key) for key in base.model_fields_set}
+        if not isinstance(base, dict):
+            return data  # the field's own validation reports it
+        teams = []
+        for team in data["teams"]:
+            own = team.get("agent") if isinstance(team, dict) else None
+            if isinstance(own, dict):
+                team = {**team, "agent": {**base, **own}}
+            teams.append(team)
+        return {**data, "teams": teams}
+
     @model_validator(mode="after")
     def _cross_checks(self):
         check_budget(self)  # first: the other checks then run over bounded totals
@@ -182,9 +201,35 @@ class ScenarioSpec(Spec):
             first += team.size
         return None
 
+    def agent_of(self, agent_index: int) -> AgentSpec:
+        """The body, sensors and actions of an agent: its team's ``agent``, else ``agent``."""
+        team = self.team_of(agent_index)
+        return team.agent if team is not None and team.agent is not None else self.agent
+
+    @property
+    def agent_specs(self) -> tuple[AgentSpec, ...]:
+        """Every agent's spec, in agent order."""
+        return tuple(self.agent_of(i) for i in range(self.n_agents))
+
+    def agent_kinds(self) -> list[tuple[KeyPath, AgentSpec, int]]:
+        """Each distinct agent spec with the key path it is written at and how many agents
+        have it: the top-level ``agent`` (for agents of teams without their own), then each
+        team with an ``agent`` of its own."""
+        own = [(("teams", i, "agent"), t.agent, t.size) for i, t in enumerate(self.teams)]
+        own = [(path, agent, size) for path, agent, size in own if agent is not None]
+        rest = self.n_agents - sum(size for _, _, size in own)
+        return ([(("agent",), self.agent, rest)] if rest > 0 else []) + own
+
+    @property
+    def heterogeneous(self) -> bool:
+        """Whether some team's agents differ from the top-level ``agent``."""
+        return any(t.agent is not None and t.agent != self.agent for t in self.teams)
+
     def spawn_of(self, agent_index: int) -> SpawnSpec:
         team = self.team_of(agent_index)
-        return team.spawn if team is not None and team.spawn is not None else self.agent.spawn
+        if team is not None and team.spawn is not None:
+            return team.spawn
+        return self.agent_of(agent_index).spawn
 
     def all_doors(self) -> list[tuple[KeyPath, DoorSpec]]:
         """Every door with its key path: standalone ones and those in room openings."""

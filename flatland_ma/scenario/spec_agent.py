@@ -371,7 +371,8 @@ class AgentSpec(Spec):
 
 
 class TeamSpec(Spec):
-    """A team: consecutive agents sharing a colour, a start area and zone rewards."""
+    """A team: consecutive agents sharing a colour, a start area, zone rewards and,
+    optionally, a body of their own."""
 
     name: Name
     """Zones name it to reward it."""
@@ -381,3 +382,8 @@ class TeamSpec(Spec):
     """Colour of its agents; none: the agents' colours."""
     spawn: SpawnSpec | None = None
     """Where its agents start; none: the agents' spawn."""
+    agent: AgentSpec | None = None
+    """What its agents are where they differ from the top-level ``agent``: each key given
+    here (``radius``, ``sensors``, ``arms``, ``actions``, ...) replaces that key of
+    ``agent`` whole, and the keys not given are ``agent``'s. Their observation and action
+    spaces follow (``env.observation_space(name)`` differs per agent); none: ``agent``."""

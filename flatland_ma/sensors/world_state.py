@@ -47,10 +47,17 @@ class WorldState:
     """Reads the state vector from an episode's world (see the module's docstring)."""
 
     def __init__(
-        self, size: tuple[float, float], counts: StateCounts, speed: float, turn_rate: float
+        self,
+        size: tuple[float, float],
+        counts: StateCounts,
+        speeds: list[float],
+        turn_rates: list[float],
     ):
+        """``speeds`` and ``turn_rates`` (degrees per second): each agent's top speeds,
+        which its velocities are given as fractions of."""
         self.size, self.counts = size, counts
-        self.speed, self.turn_rate = speed, math.radians(turn_rate)
+        self.speeds = list(speeds)
+        self.turn_rates = [math.radians(rate) for rate in turn_rates]
         labels = [f"agent_{i}.{f}" for i in range(counts.agents) for f in AGENT_FIELDS]
         for name, n in counts.items:
             labels += [f"{name}[{k}].{f}" for k in range(n) for f in ITEM_FIELDS]
@@ -76,9 +83,8 @@ class WorldState:
         ):
             raise RuntimeError("the world does not hold what the state was laid out for")
         width, height = self.size
-        speed, turn_rate = self.speed, self.turn_rate
         out: list[float] = []
-        for body in bodies:
+        for body, speed, turn_rate in zip(bodies, self.speeds, self.turn_rates):
             b = body.body
             (x, y), (vx, vy), angle = b.position, b.velocity, b.angle
             out += (
