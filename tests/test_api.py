@@ -29,6 +29,9 @@ def test_aec_api(scenario):
             # environments with one are listed by name), and several sensors give one.
             warnings.filterwarnings("ignore", "Observation is not a NumPy array")
             warnings.filterwarnings("ignore", "Observation space for each agent probably")
+        if env.unwrapped.spec.channel is not None:
+            # and this, said of MultiDiscrete: a move and words (the channel's actions).
+            warnings.filterwarnings("ignore", "Action space for each agent probably")
         if env.unwrapped.spec.heterogeneous:
             # and this one, which is what a scenario of different bodies means.
             warnings.filterwarnings("ignore", "Agents have different observation space sizes")

@@ -10,9 +10,11 @@ import yaml
 import flatland_ma
 from flatland_ma.policies import (
     CarrierPolicy,
+    Follower,
     GreedyForager,
     PlannerPolicy,
     RandomPolicy,
+    Signaller,
     Sniffer,
     evaluate,
 )
@@ -97,6 +99,8 @@ SOLVERS = {
     "sniffer": lambda env, agent: Sniffer(
         env.spec, seed=int(agent.split("_")[1]), agent=env.possible_agents.index(agent)
     ),
+    "signaller": Signaller,
+    "follower": lambda env, agent: Follower(env, agent, seed=int(agent.split("_")[1])),
 }
 """The reference solvers by name: maker(env, agent)."""
 

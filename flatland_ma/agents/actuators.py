@@ -14,6 +14,11 @@ to that (see ``parts.Control``), in the order of the parts:
   top speeds (a grip > 0 closes the hand, <= 0 opens it).
 
 ``names`` lists what each discrete action or continuous entry means, in order.
+
+With a channel of ``words`` words from a ``vocabulary``, every action also says them: a
+discrete agent acts in ``MultiDiscrete([macros, vocabulary, ...])`` (its macro, then
+``say_0``, ``say_1``, ...: ``names`` lists the macros, then those), a continuous one has
+one more Box entry per word, in [-1, 1], cut into ``vocabulary`` equal bins.
 """
 
 from __future__ import annotations
@@ -105,22 +110,39 @@ class Actuator:
     controls make the action layout; the body commanded must have parts of that layout).
     """
 
-    def __init__(self, mode: str, parts: Sequence[Part] = ()):
+    def __init__(self, mode: str, parts: Sequence[Part] = (), words: int = 0, vocabulary: int = 2):
         self.mode = mode
         self.n_controls = sum(len(part.controls) for part in parts)
+        self.words, self.vocabulary = words, vocabulary
+        say = tuple(f"say_{j}" for j in range(words))
         if mode == "discrete":
             self.macros = discrete_macros(parts)
-            self.names = tuple(m.name for m in self.macros)
-            self.space: spaces.Space = spaces.Discrete(len(self.macros))
+            self.names = tuple(m.name for m in self.macros) + say
+            self.space: spaces.Space = (
+                spaces.MultiDiscrete([len(self.macros)] + [vocabulary] * words)
+                if words
+                else spaces.Discrete(len(self.macros))
+            )
         else:
-            self.names = continuous_names(parts)
+            self.names = continuous_names(parts) + say
             self.space = spaces.Box(-1.0, 1.0, (len(self.names),), np.float32)
 
     def index(self, name: str) -> int:
-        """The discrete action, or the continuous entry, called ``name``."""
+        """The discrete action, or the continuous entry, called ``name``; a word's entry
+        of a discrete agent's ``MultiDiscrete`` action for ``say_<j>`` (1 + j)."""
         if name not in self.names:
             raise KeyError(f"no action {name!r}; actions: {', '.join(self.names)}")
-        return self.names.index(name)
+        k = self.names.index(name)
+        if self.mode == "discrete" and self.words and k >= len(self.macros):
+            return 1 + k - len(self.macros)
+        return k
+
+    def said(self, action) -> np.ndarray:
+        """The words a checked action says (only with a channel)."""
+        if self.mode == "discrete":
+            return np.asarray(action[1:], np.int64)
+        bins = np.floor((np.asarray(action[-self.words :]) + 1.0) / 2.0 * self.vocabulary)
+        return np.clip(bins, 0, self.vocabulary - 1).astype(np.int64)
 
     def check(self, agent: str, action: object):
         """Return the action in canonical form, or raise ``InvalidActionError``.
@@ -136,17 +158,19 @@ class Actuator:
     def apply(self, body: AgentBody, action) -> None:
         """Command the body; ``action`` must have passed ``check``."""
         if self.mode == "discrete":
-            macro = self.macros[action]
+            macro = self.macros[action[0] if self.words else action]
             body.command(*macro.base)
             if self.n_controls:
                 body.command_parts(macro.values)
         else:
             body.command(float(action[0]), float(action[1]), float(action[2]))
             if self.n_controls:
-                body.command_parts([float(a) for a in action[3:]])
+                body.command_parts([float(a) for a in action[3 : 3 + self.n_controls]])
         body.drive()
 
-    def _check_discrete(self, agent: str, action: object) -> int:
+    def _check_discrete(self, agent: str, action: object):
+        if self.words:
+            return self._check_words(agent, action)
         if type(action) is int:
             value = action
         elif isinstance(action, np.integer):
@@ -158,6 +182,23 @@ class Actuator:
         if not 0 <= value < len(self.macros):
             raise InvalidActionError(agent, action, self.space, "out of range")
         return value
+
+    def _check_words(self, agent: str, action: object) -> tuple[int, ...]:
+        """A discrete agent's move and words, as a tuple of ints."""
+        try:
+            raw = np.asarray(action)
+        except (TypeError, ValueError):
+            raw = np.asarray(None)
+        if raw.dtype.kind not in "iu":
+            raise InvalidActionError(agent, action, self.space, "integers are required")
+        if raw.shape != self.space.shape:
+            raise InvalidActionError(
+                agent, action, self.space, f"shape {raw.shape} is not {self.space.shape}"
+            )
+        assert isinstance(self.space, spaces.MultiDiscrete)
+        if (raw < 0).any() or (raw >= self.space.nvec).any():
+            raise InvalidActionError(agent, action, self.space, "out of range")
+        return tuple(int(v) for v in raw)
 
     def _check_continuous(self, agent: str, action: object) -> np.ndarray:
         try:

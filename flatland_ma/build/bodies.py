@@ -13,7 +13,8 @@ import math
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Part, agent_filter
-from flatland_ma.scenario.spec_agent import AgentSpec
+from flatland_ma.scenario.spec_agent import AgentSpec, ChannelSpec
+from flatland_ma.sensors.hearing import Hearing
 from flatland_ma.sensors.noise import Noise
 from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
 from flatland_ma.world.looks import RGB
@@ -71,9 +72,12 @@ def fastest_parts(agent: AgentSpec, parts: list[Part]) -> list[tuple[str, float,
     return fastest
 
 
-def make_sensors(agent: AgentSpec) -> list[Sensor]:
-    """The agent's sensors, from each spec's ``type``."""
-    sensors = []
+def make_sensors(
+    agent: AgentSpec, channel: ChannelSpec | None = None, n_agents: int = 1
+) -> list[Sensor]:
+    """The agent's sensors, from each spec's ``type``; with a ``channel`` (of a scenario
+    of ``n_agents``), its hearing last."""
+    sensors: list[Sensor] = []
     parts = make_parts(agent)
     for spec in agent.sensor_specs:
         values = spec.model_dump(exclude={"type", "noise"})
@@ -82,6 +86,8 @@ def make_sensors(agent: AgentSpec) -> list[Sensor]:
         if spec.noise is not None and spec.noise.active:
             sensor.noise = Noise(**spec.noise.model_dump())
         sensors.append(sensor)
+    if channel is not None:
+        sensors.append(Hearing(n_agents, channel.tokens, channel.vocabulary))
     return sensors
 
 

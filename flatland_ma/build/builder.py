@@ -30,6 +30,7 @@ from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.sensors.suite import Sensors
 from flatland_ma.tasks.rule import RULE_KINDS, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
+from flatland_ma.world.channel import Channel
 from flatland_ma.world.entities import Door, Entity
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.placement import PlacementError, Placer, ResetBudget
@@ -147,6 +148,17 @@ def populate(
         world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
     placer.budget = None  # the reset is done; respawns are bounded one by one
 
+    if spec.channel is not None:
+        channel = spec.channel
+        teams = [getattr(spec.team_of(i), "name", None) for i in range(spec.n_agents)]
+        world.channel = Channel(
+            spec.n_agents,
+            channel.tokens,
+            channel.vocabulary,
+            channel.range,
+            teams if channel.team else None,
+        )
+        world.channel.bodies = bodies
     eyes: list[Entity] = [
         b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own
     ]

@@ -31,6 +31,8 @@ def world_state(spec: ScenarioSpec) -> WorldState:
         state_counts(spec),
         [a.max_speed for a in agents],
         [a.max_turn_rate for a in agents],
+        spec.channel.tokens if spec.channel else 0,
+        spec.channel.vocabulary if spec.channel else 2,
     )
 
 

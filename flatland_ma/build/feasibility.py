@@ -88,7 +88,7 @@ def _check_body(spec: ScenarioSpec, body_path, agent) -> None:
 def check_layout(spec: ScenarioSpec) -> None:
     """Build with a few fixed seeds, checking there is room to spare for what is placed at
     random: raise ``SpecError`` if the scenario cannot be built reliably."""
-    sensors = [make_sensors(agent) for agent in spec.agent_specs]
+    sensors = [make_sensors(agent, spec.channel, spec.n_agents) for agent in spec.agent_specs]
     for seed in range(CHECK_SEEDS):
         rng = np.random.default_rng(seed)
         site = lay_ground(spec, rng)

@@ -73,8 +73,16 @@ class FlatlandParallelEnv(ParallelEnv):
         self.possible_agents = [f"agent_{i}" for i in range(spec.n_agents)]
         self.agents: list[str] = []
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
-        self._actuators = [Actuator(agent.actions, make_parts(agent)) for agent in spec.agent_specs]
-        self._sensors = [make_sensors(agent) for agent in spec.agent_specs]
+        words, vocabulary = (
+            (spec.channel.tokens, spec.channel.vocabulary) if spec.channel else (0, 2)
+        )
+        self._actuators = [
+            Actuator(agent.actions, make_parts(agent), words, vocabulary)
+            for agent in spec.agent_specs
+        ]
+        self._sensors = [
+            make_sensors(agent, spec.channel, spec.n_agents) for agent in spec.agent_specs
+        ]
         self.action_spaces = {a: act.space for a, act in zip(self.possible_agents, self._actuators)}
         self.observation_spaces = {
             a: observation_space(own) for a, own in zip(self.possible_agents, self._sensors)
@@ -240,6 +248,10 @@ class FlatlandParallelEnv(ParallelEnv):
         bodies, actuators = episode.bodies, self._actuators
         for i, action in zip(live, checked):
             actuators[i].apply(bodies[i], action)
+        channel = episode.world.channel
+        if channel is not None:
+            for i, action in zip(live, checked):
+                channel.say(i, actuators[i].said(action))
         self._log.append(checked)
         episode.world.step()
         episode.hands.update()
@@ -255,6 +267,8 @@ class FlatlandParallelEnv(ParallelEnv):
             for i in live:
                 if i not in self._live:
                     bodies[i].command(0.0, 0.0, 0.0)
+                    if channel is not None:
+                        channel.silence(i)
             self.agents = [self.possible_agents[i] for i in self._live]
         return live, rewards, terminated, truncated
 
@@ -269,7 +283,9 @@ class FlatlandParallelEnv(ParallelEnv):
             raise RuntimeError("call reset() before state()")
         self.enter()
         try:
-            return self._world_state.read(*self._state_parts)
+            channel = self.running.world.channel
+            said = None if channel is None else channel.said
+            return self._world_state.read(*self._state_parts, said=said)
         finally:
             self.leave()
 

@@ -6,6 +6,16 @@ from flatland_ma.policies.carrier import CarrierPolicy
 from flatland_ma.policies.greedy import GreedyForager
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy, evaluate
+from flatland_ma.policies.signals import Follower, Signaller
 from flatland_ma.policies.sniffer import Sniffer
 
-__all__ = ["CarrierPolicy", "GreedyForager", "PlannerPolicy", "RandomPolicy", "Sniffer", "evaluate"]
+__all__ = [
+    "CarrierPolicy",
+    "Follower",
+    "GreedyForager",
+    "PlannerPolicy",
+    "RandomPolicy",
+    "Signaller",
+    "Sniffer",
+    "evaluate",
+]

@@ -60,7 +60,8 @@ class GreedyForager:
         camera_spec = body.sensor_specs[k]
         assert isinstance(camera_spec, CameraSpec)
         camera = make_sensors(body)[k]
-        self.key = camera.name if len(body.sensor_specs) > 1 else None
+        several = len(body.sensor_specs) > 1 or spec.channel is not None  # a Dict then
+        self.key = camera.name if several else None
         """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
         widths = {"rgb": 3, "depth": 1, "semantic": 6 if camera_spec.semantic == "onehot" else 1}
         starts = dict(
@@ -74,7 +75,7 @@ class GreedyForager:
         self.range = camera_spec.range
         self.linear = camera_spec.falloff == "linear"
         self.discrete = body.actions == "discrete"
-        self.motion = BaseMotion(body)
+        self.motion = BaseMotion(body, spec.channel)
         self.good = np.array([i.color for i in spec.items if i.reward > 0], np.float64)
         self.bad = np.array([i.color for i in spec.items if i.reward < 0], np.float64)
         self.neutral = np.array([i.color for i in spec.items if i.reward == 0], np.float64)

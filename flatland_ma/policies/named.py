@@ -11,6 +11,7 @@ from flatland_ma.policies.checkpoint import CheckpointPolicy
 from flatland_ma.policies.greedy import GreedyForager
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy
+from flatland_ma.policies.signals import Follower, Signaller
 from flatland_ma.policies.sniffer import Sniffer
 
 SHIPPED: dict[str, Callable] = {
@@ -20,6 +21,8 @@ SHIPPED: dict[str, Callable] = {
     "sniffer": lambda env, agent, seed: Sniffer(
         env.spec, seed=seed, agent=env.possible_agents.index(agent)
     ),
+    "signaller": lambda env, agent, seed: Signaller(env, agent),
+    "follower": lambda env, agent, seed: Follower(env, agent, seed=seed),
     "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
 }
 """The shipped policies: name -> maker(env, agent, seed)."""

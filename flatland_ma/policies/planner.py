@@ -33,7 +33,7 @@ class PlannerPolicy:
         spec = env.spec
         body = spec.agent_of(self.index)
         self.discrete = body.actions == "discrete"
-        self.motion = BaseMotion(body)
+        self.motion = BaseMotion(body, spec.channel)
         self.radius = body.radius
         self.turn_step = math.radians(body.max_turn_rate) * spec.physics.dt
         self.aim = self.turn_step * 0.6

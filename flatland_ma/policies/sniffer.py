@@ -45,7 +45,7 @@ class Sniffer:
             raise ValueError("the sniffer reads a smell sensor: the agent has none")
         smell = body.sensor_specs[found[0]]
         assert isinstance(smell, SmellSpec)
-        several = len(body.sensor_specs) > 1
+        several = len(body.sensor_specs) > 1 or spec.channel is not None
         self.key = (smell.name or smell.type) if several else None
         """The smell's entry in a ``Dict`` observation (None: the observation is it)."""
         rewards = {item.name: item.reward for item in spec.items}
@@ -54,7 +54,7 @@ class Sniffer:
             [-1.0 if s is not None and rewards[s] < 0 else 1.0 for s in sources], np.float64
         )
         """How each channel counts: +1 a good group (or every item), -1 a bad one."""
-        self.motion = BaseMotion(body)
+        self.motion = BaseMotion(body, spec.channel)
         self.rng = np.random.default_rng(seed)
         self.reset()
 

@@ -15,6 +15,8 @@ RESERVED_NAMES = ("score", "keys", "deliveries")
 
 
 def check_teams(spec: ScenarioSpec) -> None:
+    if spec.channel is not None and spec.channel.team and not spec.teams:
+        raise SpecError(("channel", "team"), "a channel for teammates only needs 'teams'")
     if not spec.teams:
         for i, zone in enumerate(spec.zones):
             if zone.team is not None:

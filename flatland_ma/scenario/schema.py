@@ -22,6 +22,7 @@ from flatland_ma.scenario.spec_agent import (
     ArmSegmentSpec,
     ArmSpec,
     CameraSpec,
+    ChannelSpec,
     GrasperSpec,
     HeadSpec,
     SpawnSpec,
@@ -55,6 +56,7 @@ from flatland_ma.scenario.types import Flag, Name, Spec, TextureSpec
 
 __all__ = [
     "AgentSpec",
+    "ChannelSpec",
     "ArmSegmentSpec",
     "ArmSpec",
     "GrasperSpec",
@@ -144,6 +146,8 @@ class ScenarioSpec(Spec):
     """What every agent is: body, motor, camera, actions, start."""
     teams: Annotated[tuple[TeamSpec, ...], Field(max_length=MAX_GROUPS)] = ()
     """Teams of agents, in agent order; their sizes add up to ``n_agents``."""
+    channel: ChannelSpec | None = None
+    """A channel the agents talk on (see its section); none: they cannot signal."""
     rules: Annotated[tuple[RuleSpec, ...], Field(max_length=MAX_GROUPS)] = ()
     """Rules added to the task, applied in order after what items, zones, doors and
     deliveries do, and before the episode's ending is decided."""

@@ -370,6 +370,26 @@ class AgentSpec(Spec):
         return self
 
 
+class ChannelSpec(Spec):
+    """A channel the agents talk on. Each step every agent says ``tokens`` words, each one
+    of ``vocabulary``, as part of its action: a discrete agent's action becomes
+    ``MultiDiscrete([moves, vocabulary, ...])`` (its move, then ``say_0``, ``say_1``, ...),
+    a continuous agent's Box gains one entry per word in [-1, 1] (cut into ``vocabulary``
+    equal bins). What was said with a step's actions is heard in the observations that
+    step returns (so acted on at the next step), under the key ``messages``: per agent, 1
+    if heard, then each word one-hot. It is part of the global state."""
+
+    tokens: Annotated[int, Field(strict=True, ge=1, le=8)] = 1
+    """Words per message."""
+    vocabulary: Annotated[int, Field(strict=True, ge=2, le=32)] = 2
+    """How many different words there are."""
+    range: Distance | None = None
+    """Agents hear speakers whose centre is within this distance of theirs; none: at any
+    distance."""
+    team: Annotated[bool, Field(strict=True)] = False
+    """Only teammates hear each other (the scenario needs ``teams``)."""
+
+
 class TeamSpec(Spec):
     """A team: consecutive agents sharing a colour, a start area, zone rewards and,
     optionally, a body of their own."""

@@ -25,7 +25,7 @@ class ReferenceSpec(Spec):
     plays the solver ``teams`` names for it (agents with different roles)."""
     teams: (
         Annotated[
-            tuple[Literal["greedy", "planner", "carrier", "sniffer"], ...],
+            tuple[Literal["greedy", "planner", "carrier", "sniffer", "signaller", "follower"], ...],
             Field(min_length=1, max_length=64),
         ]
         | None

@@ -12,7 +12,9 @@ headings as cosine and sine, velocities as fractions of the agents' top speeds, 
 - per movable object, in file order, ``OBJECT_FIELDS`` = 4: x, y, cos, sin;
 - per door, in build order (the file's, then each generator's), ``DOOR_FIELDS`` = 3: 1
   while it is not open (a hinged door is never "open": its panel's turn says how far it
-  swung), and the cos and sin of its panel's turn from shut.
+  swung), and the cos and sin of its panel's turn from shut;
+- with a channel, per agent and word, ``say_<j>``: what it said on the last step, as
+  ``(word + 1) / vocabulary`` (0 for silence).
 
 ``WorldState.labels`` names every entry, e.g. ``agent_1.vx`` or ``fruits[3].present``.
 """
@@ -52,6 +54,8 @@ class WorldState:
         counts: StateCounts,
         speeds: list[float],
         turn_rates: list[float],
+        words: int = 0,
+        vocabulary: int = 2,
     ):
         """``speeds`` and ``turn_rates`` (degrees per second): each agent's top speeds,
         which its velocities are given as fractions of."""
@@ -63,6 +67,8 @@ class WorldState:
             labels += [f"{name}[{k}].{f}" for k in range(n) for f in ITEM_FIELDS]
         labels += [f"object[{k}].{f}" for k in range(counts.objects) for f in OBJECT_FIELDS]
         labels += [f"door[{k}].{f}" for k in range(counts.doors) for f in DOOR_FIELDS]
+        labels += [f"agent_{i}.say_{j}" for i in range(counts.agents) for j in range(words)]
+        self.words, self.vocabulary = words, vocabulary
         self.labels = tuple(labels)
         signed = np.array([label.rsplit(".", 1)[1] in _SIGNED for label in labels], bool)
         self.space = gymnasium.spaces.Box(
@@ -71,9 +77,10 @@ class WorldState:
             dtype=np.float32,
         )
 
-    def read(self, bodies, items, objects, doors) -> np.ndarray:
+    def read(self, bodies, items, objects, doors, said=None) -> np.ndarray:
         """The state of agents' bases ``bodies``, ``items``, movable ``objects`` and
-        ``doors`` (entities, each in the documented order)."""
+        ``doors`` (entities, each in the documented order), and with a channel what each
+        agent ``said`` (agents x words, -1 for silence)."""
         counts = self.counts
         if (len(bodies), len(items), len(objects), len(doors)) != (
             counts.agents,
@@ -107,5 +114,7 @@ class WorldState:
         for door in doors:
             turn = door.body.angle - door.closed_angle
             out += (0.0 if door.is_open else 1.0, math.cos(turn), math.sin(turn))
+        if self.words:
+            out += ((np.asarray(said).ravel() + 1.0) / self.vocabulary).tolist()
         state = np.array(out, np.float32)
         return np.clip(state, self.space.low, self.space.high, out=state)

@@ -9,6 +9,7 @@ from typing import cast
 
 import pymunk
 
+from flatland_ma.world.channel import Channel
 from flatland_ma.world.contacts import ContactLog
 from flatland_ma.world.entities import Category, CollisionType, Door, Entity, Item, Obstacle, Zone
 
@@ -36,6 +37,8 @@ class World:
         self.agents: list[Entity] = []
         """Agents' bases, in agent order."""
         self.zones: list[Zone] = []
+        self.channel: Channel | None = None
+        """What the agents said, when the scenario gives them a channel."""
         self.tagged: list[Obstacle] = []
         """Objects with a delivery tag."""
         self.log = ContactLog()
