@@ -288,6 +288,7 @@ def main(args: Args) -> dict:
             action_space=env.single_action_space,
             extra={
                 "algorithm": "ppo",
+                "trained_with": ["self"],  # self-play: every slot is this policy
                 "args": asdict(args),
                 "update": update,
                 "agent_steps": global_step,

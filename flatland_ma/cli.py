@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from flatland_ma import __version__
+from flatland_ma.evaluation import command as evaluation
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 
@@ -105,6 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--seconds", type=float, default=3.0, help="with --scale: per row")
     bench.add_argument("--no-ppo", action="store_true", help="with --scale: skip PPO")
 
+    evaluation.add_parser(commands)
+
     args = parser.parse_args(argv)
     command = {
         "list": _list,
@@ -113,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         "record": _record,
         "play": _play,
         "bench": _bench,
+        "evaluate": evaluation.run,
     }[args.command]
     try:
         status = command(args)

@@ -41,6 +41,9 @@ def test_the_wheel_holds_every_scenario_file_as_package_data(wheel):
     missing = [name for name in shipped if f"flatland_ma/scenarios/{name}" not in names]
     assert missing == [], f"not in {wheel.name}: {missing}"
     assert not [name for name in names if name.startswith("scenarios/")]
+    suites = sorted(p.name for p in (ROOT / "scenarios" / "suites").glob("*.yaml"))
+    assert "society.yaml" in suites
+    assert [s for s in suites if f"flatland_ma/scenarios/suites/{s}" not in names] == []
 
 
 def test_the_wheel_holds_every_module_of_the_package(wheel):

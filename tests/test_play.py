@@ -13,7 +13,8 @@ import pytest
 import flatland_ma
 from flatland_ma.cli import main
 from flatland_ma.play import KeyMap, Keys, PygameKeys, ScriptedKeys, Session, missing_display, play
-from flatland_ma.play.session import SCORE_COLUMNS, IdlePolicy
+from flatland_ma.play.session import SCORE_COLUMNS
+from flatland_ma.policies.idle import IdlePolicy
 
 # -- keys to actions ----------------------------------------------------------------------
 

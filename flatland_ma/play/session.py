@@ -15,10 +15,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
 from gymnasium import spaces
 
-from flatland_ma.agents.actuators import DiscreteAction
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.play.keys import NEXT_AGENT, QUIT, KeyMap, Keys
 from flatland_ma.policies.named import SHIPPED, is_checkpoint, make_policy
@@ -27,34 +25,7 @@ SCORE_COLUMNS = ("time", "scenario", "seed", "agent", "steps", "score")
 """The columns of the scores file, one row per agent you drove in an episode."""
 
 
-class IdlePolicy:
-    """Keeps still: ``stay``, or all zeros; with only the paper's three actions (none of
-    which keeps still) it turns left and right in turn, staying where it is."""
-
-    def __init__(self, env: FlatlandParallelEnv, agent: str):
-        space, names = env.action_space(agent), env.action_names(agent)
-        self.continuous = isinstance(space, spaces.Box)
-        self.size = len(names)
-        self.stay = names.index("stay") if "stay" in names else None
-        self.turns = (int(DiscreteAction.ROTATE_LEFT), int(DiscreteAction.ROTATE_RIGHT))
-        self.t = 0
-
-    def reset(self) -> None:
-        self.t = 0
-
-    def act(self, observation=None):
-        if self.continuous:
-            return np.zeros(self.size, np.float32)
-        if self.stay is not None:
-            return self.stay
-        self.t += 1
-        return self.turns[self.t % 2]
-
-
-OTHERS: dict[str, Callable] = {
-    **SHIPPED,
-    "idle": lambda env, agent, seed: IdlePolicy(env, agent),
-}
+OTHERS: dict[str, Callable] = dict(SHIPPED)
 """The policies the agents you do not drive can follow, by name (or a checkpoint's path)."""
 
 

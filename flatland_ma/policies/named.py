@@ -9,6 +9,7 @@ from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.policies.carrier import CarrierPolicy
 from flatland_ma.policies.checkpoint import CheckpointPolicy
 from flatland_ma.policies.greedy import GreedyForager
+from flatland_ma.policies.idle import IdlePolicy
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy
 from flatland_ma.policies.signals import Follower, Signaller
@@ -24,6 +25,7 @@ SHIPPED: dict[str, Callable] = {
     "signaller": lambda env, agent, seed: Signaller(env, agent),
     "follower": lambda env, agent, seed: Follower(env, agent, seed=seed),
     "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
+    "idle": lambda env, agent, seed: IdlePolicy(env, agent),
 }
 """The shipped policies: name -> maker(env, agent, seed)."""
 
