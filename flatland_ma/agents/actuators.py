@@ -185,32 +185,28 @@ class Actuator:
 
     def _check_words(self, agent: str, action: object) -> tuple[int, ...]:
         """A discrete agent's move and words, as a tuple of ints."""
-        try:
-            raw = np.asarray(action)
-        except (TypeError, ValueError):
-            raw = np.asarray(None)
-        if raw.dtype.kind not in "iu":
-            raise InvalidActionError(agent, action, self.space, "integers are required")
-        if raw.shape != self.space.shape:
-            raise InvalidActionError(
-                agent, action, self.space, f"shape {raw.shape} is not {self.space.shape}"
-            )
+        raw = self._array(agent, action, "iu", "integers")
         assert isinstance(self.space, spaces.MultiDiscrete)
         if (raw < 0).any() or (raw >= self.space.nvec).any():
             raise InvalidActionError(agent, action, self.space, "out of range")
         return tuple(int(v) for v in raw)
 
-    def _check_continuous(self, agent: str, action: object) -> np.ndarray:
+    def _array(self, agent: str, action: object, kinds: str, what: str) -> np.ndarray:
+        """The action as an array of the space's shape whose dtype is of ``kinds``."""
         try:
             raw = np.asarray(action)
         except (TypeError, ValueError):
             raw = np.asarray(None)
-        if raw.dtype.kind not in "fiu":
-            raise InvalidActionError(agent, action, self.space, "numbers are required")
+        if raw.dtype.kind not in kinds:
+            raise InvalidActionError(agent, action, self.space, f"{what} are required")
         if raw.shape != self.space.shape:
             raise InvalidActionError(
                 agent, action, self.space, f"shape {raw.shape} is not {self.space.shape}"
             )
+        return raw
+
+    def _check_continuous(self, agent: str, action: object) -> np.ndarray:
+        raw = self._array(agent, action, "fiu", "numbers")
         value = raw.astype(np.float64)
         if not np.isfinite(value).all():
             raise InvalidActionError(agent, action, self.space, "NaN or infinite entries")
