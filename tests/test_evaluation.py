@@ -204,3 +204,29 @@ def test_crossplay_gives_a_matrix_and_elo(capsys, tmp_path):
     assert wins[0, 1] == 1.0 and wins[1, 0] == 0.0  # carriers beat a team that keeps still
     assert result["elo"][0] > result["elo"][1]
     assert "Elo" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "name, scenario",
+    [
+        ("greedy", "fruits_poisons_multi"),
+        ("planner", "plate_relay"),
+        ("carrier", "coop_carry"),
+        ("sniffer", "scent_rooms"),
+        ("signaller", "signal_rooms"),
+        ("follower", "signal_rooms"),
+        ("random", "signal_rooms"),
+        ("idle", "signal_rooms"),
+    ],
+)
+def test_every_shipped_policy_is_a_policy_that_acts_in_its_agents_space(name, scenario):
+    import flatland_ma
+    from flatland_ma.policies import SHIPPED, Policy, make_policy
+
+    assert name in SHIPPED
+    env = flatland_ma.parallel_env(scenario)
+    observations, _ = env.reset(seed=0)
+    agent = env.possible_agents[-1]
+    policy = make_policy(name, env, agent, seed=0)
+    assert isinstance(policy, Policy)
+    assert env.action_space(agent).contains(np.asarray(policy.act(observations[agent])))

@@ -4,6 +4,8 @@ scripted carrier of objects (privileged: they read the world), and uniform rando
 
 from flatland_ma.policies.carrier import CarrierPolicy
 from flatland_ma.policies.greedy import GreedyForager
+from flatland_ma.policies.idle import IdlePolicy
+from flatland_ma.policies.named import SHIPPED, Policy, make_policy
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy, evaluate
 from flatland_ma.policies.signals import Follower, Signaller
@@ -13,9 +15,13 @@ __all__ = [
     "CarrierPolicy",
     "Follower",
     "GreedyForager",
+    "IdlePolicy",
     "PlannerPolicy",
+    "Policy",
     "RandomPolicy",
+    "SHIPPED",
     "Signaller",
     "Sniffer",
     "evaluate",
+    "make_policy",
 ]

@@ -1,9 +1,11 @@
-"""Policies by name, for the command line: the shipped ones, or a checkpoint's path."""
+"""Policies by name, for the command line and evaluation suites: the shipped ones, or a
+checkpoint's path. Every one of them is a ``Policy``."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
 
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.policies.carrier import CarrierPolicy
@@ -14,6 +16,18 @@ from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy
 from flatland_ma.policies.signals import Follower, Signaller
 from flatland_ma.policies.sniffer import Sniffer
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """What drives one agent: ``act`` maps the agent's observation (as the env gives it)
+    to an action of its space. A policy that keeps memory within an episode also has
+    ``reset()``, which the runners call at every reset. Scripted policies, random play,
+    ``idle`` and saved checkpoints (``CheckpointPolicy``) all are; ``make_policy`` makes
+    any of them by name."""
+
+    def act(self, observation: Any) -> Any: ...
+
 
 SHIPPED: dict[str, Callable] = {
     "greedy": lambda env, agent, seed: GreedyForager(env.spec, env.possible_agents.index(agent)),
