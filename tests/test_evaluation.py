@@ -204,6 +204,7 @@ def test_crossplay_gives_a_matrix_and_elo(capsys, tmp_path):
     assert wins[0, 1] == 1.0 and wins[1, 0] == 0.0  # carriers beat a team that keeps still
     assert result["elo"][0] > result["elo"][1]
     assert "Elo" in capsys.readouterr().out
+    assert (tmp_path / "crossplay.png").stat().st_size > 1000
 
 
 @pytest.mark.parametrize(

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -34,7 +33,13 @@ def add_parser(commands) -> None:
 
 
 def run(args) -> int:
-    from flatland_ma.evaluation.runner import crossplay, run_suite, table, write_report
+    from flatland_ma.evaluation.runner import (
+        crossplay,
+        run_suite,
+        table,
+        write_crossplay,
+        write_report,
+    )
     from flatland_ma.evaluation.suite import list_suites, load_suite
 
     if args.list:
@@ -47,9 +52,9 @@ def run(args) -> int:
         for i, (name, row, rating) in enumerate(zip(names, result["wins"], result["elo"])):
             cells = "".join(f"{'-':>12}" if i == j else f"{w:12.2f}" for j, w in enumerate(row))
             print(f"{name:20}{cells}{rating:8.0f}")
-        if args.out:
-            Path(args.out).mkdir(parents=True, exist_ok=True)
-            (Path(args.out) / "crossplay.json").write_text(json.dumps(result, indent=2))
+        out = Path(args.out or Path("runs") / "evaluate" / "crossplay" / args.scenario)
+        for path in write_crossplay(result, out, plot=not args.no_plot):
+            print(f"wrote {path}")
         return 0
     if args.policy is None:
         print("flatland-ma evaluate: give a POLICY (or --crossplay, --list)", file=sys.stderr)

@@ -224,6 +224,39 @@ def write_report(result: dict, out: Path, plot: bool = True) -> list[Path]:
     return written
 
 
+def write_crossplay(result: dict, out: Path, plot: bool = True) -> list[Path]:
+    """A cross-play result as JSON, and its matrix as a picture with the Elo ratings."""
+    import json
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = [out / "crossplay.json"]
+    written[0].write_text(json.dumps(result, indent=2))
+    if not plot:
+        return written
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [f"{Path(p).name} ({r:.0f})" for p, r in zip(result["policies"], result["elo"])]
+    wins = np.array(result["wins"], dtype=float)
+    fig, ax = plt.subplots(figsize=(1.2 * len(names) + 3, 0.8 * len(names) + 2))
+    image = ax.imshow(wins, vmin=0, vmax=1, cmap="RdYlGn")
+    for (i, j), value in np.ndenumerate(wins):
+        ax.text(j, i, "-" if np.isnan(value) else f"{value:.2f}", ha="center", va="center")
+    ax.set_xticks(range(len(names)), [Path(p).name for p in result["policies"]])
+    ax.set_yticks(range(len(names)), names)
+    ax.set_xlabel("the other teams' policy")
+    ax.set_ylabel("the first team's policy (Elo)")
+    ax.set_title(f"{result['scenario']}: the first team's share of wins")
+    fig.colorbar(image, ax=ax)
+    fig.tight_layout()
+    written.append(out / "crossplay.png")
+    fig.savefig(written[-1], dpi=100)
+    plt.close(fig)
+    return written
+
+
 def _plot(result: dict, path: Path) -> Path:
     import matplotlib
 
