@@ -65,10 +65,7 @@ class Episode:
             return self.grid
         if radius not in self._grids:
             grid = NavGrid(self.grid.size, radius, self.grid.cell)
-            for entity in self.world.entities:
-                if entity.blocks_paths:
-                    for shape in entity.shapes:
-                        grid.block_shape(shape)
+            grid.block_entities(self.world.entities)
             self._grids[radius] = grid
         return self._grids[radius]
 

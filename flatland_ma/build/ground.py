@@ -91,10 +91,7 @@ class Ground:
         # Free for the slimmest agent: every place some agent can go (planners that drive a
         # wider one plan on ``Episode.grid_for`` its radius).
         grid = NavGrid(spec.arena.size, min(a.radius for _, a, _ in spec.agent_kinds()))
-        for entity in world.entities:
-            if entity.blocks_paths:
-                for shape in entity.shapes:
-                    grid.block_shape(shape)
+        grid.block_entities(world.entities)
         self._grid = grid
         start = np.zeros_like(grid.blocked)
         for group in spawn_groups(spec):

@@ -246,11 +246,10 @@ class FlatlandParallelEnv(ParallelEnv):
         episode = self.running
         live = self._live
         bodies, actuators = episode.bodies, self._actuators
+        channel = episode.world.channel
         for i, action in zip(live, checked):
             actuators[i].apply(bodies[i], action)
-        channel = episode.world.channel
-        if channel is not None:
-            for i, action in zip(live, checked):
+            if channel is not None:
                 channel.say(i, actuators[i].said(action))
         self._log.append(checked)
         episode.world.step()

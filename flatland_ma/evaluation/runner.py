@@ -15,6 +15,7 @@ from flatland_ma.evaluation.stats import elo, normalise, stratified_bootstrap
 from flatland_ma.evaluation.suite import SuiteSpec, TaskSpec
 from flatland_ma.policies.checkpoint import read_checkpoint
 from flatland_ma.policies.named import is_checkpoint, make_policy
+from flatland_ma.policies.rollout import play_episode
 
 RANDOM = "random"
 
@@ -52,23 +53,9 @@ def play(
     }
     returns = []
     for k in range(episodes):
-        observations, _ = env.reset(seed=seed + k)
-        _reset(policies.values())
-        total = dict.fromkeys(focal, 0.0)
-        while env.agents:
-            actions = {a: policies[a].act(observations[a]) for a in env.agents}
-            observations, rewards, *_ = env.step(actions)
-            for a in focal:
-                total[a] += rewards.get(a, 0.0)
-        returns.append(float(np.mean(list(total.values()))))
+        total, _ = play_episode(env, policies, seed + k)
+        returns.append(float(np.mean([total[a] for a in focal])))
     return returns
-
-
-def _reset(policies) -> None:
-    for policy in policies:
-        reset = getattr(policy, "reset", None)
-        if reset is not None:
-            reset()
 
 
 def check_held_out(policy: str, suite: SuiteSpec) -> None:
@@ -197,14 +184,7 @@ def _first_team_wins(env, first, mine, theirs, episodes, seed) -> float:
     }
     score = 0.0
     for k in range(episodes):
-        observations, _ = env.reset(seed=seed + k)
-        _reset(policies.values())
-        total = dict.fromkeys(env.possible_agents, 0.0)
-        while env.agents:
-            actions = {a: policies[a].act(observations[a]) for a in env.agents}
-            observations, rewards, *_ = env.step(actions)
-            for a, r in rewards.items():
-                total[a] += r
+        total, _ = play_episode(env, policies, seed + k)
         ours = np.mean([total[a] for a in first])
         others = np.mean([v for a, v in total.items() if a not in first])
         score += 1.0 if ours > others else 0.5 if ours == others else 0.0

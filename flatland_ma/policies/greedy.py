@@ -59,9 +59,9 @@ class GreedyForager:
         k = found[0]  # it reads the first camera's image
         camera_spec = body.sensor_specs[k]
         assert isinstance(camera_spec, CameraSpec)
-        camera = make_sensors(body)[k]
-        several = len(body.sensor_specs) > 1 or spec.channel is not None  # a Dict then
-        self.key = camera.name if several else None
+        sensors = make_sensors(body, spec.channel, spec.n_agents)
+        camera = sensors[k]
+        self.key = camera.name if len(sensors) > 1 else None
         """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
         widths = {"rgb": 3, "depth": 1, "semantic": 6 if camera_spec.semantic == "onehot" else 1}
         starts = dict(

@@ -45,16 +45,25 @@ def evaluate(env: FlatlandParallelEnv, make_policy, episodes: int, seed: int = 0
     policies = {a: make_policy(a) for a in env.possible_agents}
     returns, infos = [], []
     for k in range(episodes):
-        observations, info = env.reset(seed=seed + k)
-        for policy in policies.values():
-            if hasattr(policy, "reset"):
-                policy.reset()
-        total = dict.fromkeys(env.possible_agents, 0.0)
-        while env.agents:
-            actions = {a: policies[a].act(observations[a]) for a in env.agents}
-            observations, rewards, _, _, info = env.step(actions)
-            for a, r in rewards.items():
-                total[a] += r
+        total, info = play_episode(env, policies, seed + k)
         returns.append(float(np.mean(list(total.values()))))
         infos.append(info)
     return EpisodeScores(returns, infos)
+
+
+def play_episode(env: FlatlandParallelEnv, policies: dict, seed: int) -> tuple[dict, dict]:
+    """One whole episode from ``reset(seed=seed)``, ``policies[agent]`` acting for each
+    agent (each reset first, if it has ``reset``): every agent's return, and the infos
+    of the last step."""
+    observations, info = env.reset(seed=seed)
+    for policy in policies.values():
+        reset = getattr(policy, "reset", None)
+        if reset is not None:
+            reset()
+    total = dict.fromkeys(env.possible_agents, 0.0)
+    while env.agents:
+        actions = {a: policies[a].act(observations[a]) for a in env.agents}
+        observations, rewards, _, _, info = env.step(actions)
+        for a, r in rewards.items():
+            total[a] += r
+    return total, info

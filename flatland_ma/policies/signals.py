@@ -52,13 +52,13 @@ class Signaller:
     def act(self, observation=None):
         episode = self.env.episode
         me = episode.bodies[self.index].body.position
-        goals = sorted(
+        goal = min(
             (i for i in episode.world.of_type(Item) if i.visible and i.reward > 0),
             key=lambda i: (i.body.position - me).length,
+            default=None,
         )
-        word = 0
-        for item in goals[:1]:
-            word = next((j for j, r in enumerate(self.rooms) if _inside(r, item.body.position)), 0)
+        rooms = [] if goal is None else [_inside(r, goal.body.position) for r in self.rooms]
+        word = rooms.index(True) if True in rooms else 0
         return self.motion.action(0.0, 1.0, [word] * self.motion.words)
 
 

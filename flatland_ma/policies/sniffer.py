@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from flatland_ma.build.bodies import make_sensors
 from flatland_ma.policies.motion import BaseMotion
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.scenario.spec_agent import SmellSpec
@@ -45,7 +46,7 @@ class Sniffer:
             raise ValueError("the sniffer reads a smell sensor: the agent has none")
         smell = body.sensor_specs[found[0]]
         assert isinstance(smell, SmellSpec)
-        several = len(body.sensor_specs) > 1 or spec.channel is not None
+        several = len(make_sensors(body, spec.channel, spec.n_agents)) > 1  # a Dict then
         self.key = (smell.name or smell.type) if several else None
         """The smell's entry in a ``Dict`` observation (None: the observation is it)."""
         rewards = {item.name: item.reward for item in spec.items}

@@ -128,6 +128,13 @@ class NavGrid:
         other.blocked = self.blocked.copy()
         return other
 
+    def block_entities(self, entities) -> None:
+        """Block every shape of the entities that stand in agents' way for good."""
+        for entity in entities:
+            if entity.blocks_paths:
+                for shape in entity.shapes:
+                    self.block_shape(shape)
+
     def block_shape(self, shape: pymunk.Shape, extra: float = 0.0) -> None:
         """Mark what ``shape`` (at its body's current pose) keeps agents' centres out of."""
         self._rasterise(self.blocked, shape, extra)
