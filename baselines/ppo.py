@@ -2,8 +2,10 @@
 
 The run's worlds are one ``BatchedParallelEnv`` (``--shards K`` spreads them over K
 processes): every agent of every world is one slot, one forward pass acts for all of them,
-and every agent's experience trains the one policy. The network sees only the agent's own
-first-person image. The update is CleanRL's PPO (clipped objective, GAE, value clipping,
+and every agent's experience trains the one policy. The network (``baselines.networks``) sees
+what the agent observes, its own first-person image or map, and in a scenario with a
+channel what it hears; it acts in ``Discrete`` moves, or ``MultiDiscrete`` moves and words
+(one head per component). The update is CleanRL's PPO (clipped objective, GAE, value clipping,
 advantage normalisation, annealed learning rate), with its default settings unless stated.
 
 Slots whose action the env does not use on a step are left out of the update: an agent
@@ -27,20 +29,15 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal
 
+import gymnasium
 import numpy as np
 import torch
 import tyro
 from torch import nn
+from torch.utils._pytree import tree_leaves, tree_map
 
-from baselines.common import (
-    FromObservation,
-    RunLog,
-    conv_trunk,
-    default_csv,
-    input_channels,
-    seed_everything,
-    trunk_length,
-)
+from baselines.common import RunLog, default_csv, input_channels, seed_everything
+from baselines.networks import Agent
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
@@ -50,7 +47,10 @@ from flatland_ma.policies.checkpoint import write_checkpoint
 @dataclass
 class Args:
     scenario: str = "fruits_poisons_multi"
-    """Scenario to train on; any number of agents, all with the same camera and actions."""
+    """Scenario to train on; any number of agents, all with the same spaces."""
+    no_channel: bool = False
+    """Play the scenario without its channel (``channel: null``): nobody speaks or hears.
+    The default log is then runs/ppo/<scenario>-no-channel/."""
     seed: int = 0
     """Seeds torch and numpy; world k of the batch is reset with seed * num_envs + k."""
     total_timesteps: int = 1_000_000
@@ -102,64 +102,6 @@ class Args:
     """Processes the worlds are spread over (1: all in this process)."""
 
 
-def layer_init(layer: nn.Module, std: float = np.sqrt(2), bias: float = 0.0) -> nn.Module:
-    nn.init.orthogonal_(layer.weight, std)
-    nn.init.constant_(layer.bias, bias)
-    return layer
-
-
-STRIDED = ((32, 8, 4), (64, 4, 2), (64, 3, 1))
-"""The strided trunk's layers: (filters, kernel, stride)."""
-
-
-def strided_trunk(channels: int, rays: int) -> tuple[nn.Sequential, int]:
-    """The strided conv trunk and the length of its output."""
-    layers, length = [], rays
-    for filters, kernel, stride in STRIDED:
-        layers += [nn.Conv1d(channels, filters, kernel, stride), nn.ReLU()]
-        channels, length = filters, (length - kernel) // stride + 1
-    return nn.Sequential(*layers), channels * length
-
-
-class Agent(nn.Module):
-    """A conv trunk - Dense(128), then policy and value heads; orthogonal initialisation as
-    in CleanRL. The trunk is the paper's followed by MaxPool1D(2), or the strided one.
-    Inputs are (batch, channels, rays)."""
-
-    def __init__(self, channels: int, rays: int, actions: int, hidden: int, network="strided"):
-        super().__init__()
-        if network == "paper":
-            trunk = nn.Sequential(conv_trunk(channels), nn.MaxPool1d(2))
-            features = 64 * (trunk_length(rays) // 2)
-        else:
-            trunk, features = strided_trunk(channels, rays)
-        self.body = nn.Sequential(trunk, nn.Flatten(), nn.Linear(features, hidden), nn.ReLU())
-        for layer in self.body.modules():
-            if isinstance(layer, (nn.Conv1d, nn.Linear)):
-                layer_init(layer)
-        self.actor = layer_init(nn.Linear(hidden, actions), std=0.01)
-        self.critic = layer_init(nn.Linear(hidden, 1), std=1.0)
-
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """The policy's logits."""
-        return self.actor(self.body(x))
-
-    def value(self, x: torch.Tensor) -> torch.Tensor:
-        return self.critic(self.body(x)).squeeze(-1)
-
-    def act(self, x: torch.Tensor, action: torch.Tensor | None = None):
-        h = self.body(x)
-        distribution = torch.distributions.Categorical(logits=self.actor(h))
-        if action is None:
-            action = distribution.sample()
-        return (
-            action,
-            distribution.log_prob(action),
-            distribution.entropy(),
-            self.critic(h).squeeze(-1),
-        )
-
-
 def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> torch.Tensor:
     """Generalised advantage estimation per slot over a rollout of T steps:
         delta_t = r_t + gamma V(s_{t+1}) (1 - terminated_t) - V(s_t)
@@ -193,8 +135,8 @@ def update(
             + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
             - ent_coef * H,   ratio = pi(a|s) / pi_old(a|s)"""
     used = acting.reshape(-1).nonzero().squeeze(1)
-    b_x = observations.reshape(-1, *observations.shape[2:])
-    b_actions, b_logprobs = actions.reshape(-1), logprobs.reshape(-1)
+    b_x = tree_map(lambda x: x.reshape(-1, *x.shape[2:]), observations)
+    b_actions, b_logprobs = actions.reshape(-1, actions.shape[-1]), logprobs.reshape(-1)
     b_advantages, b_returns, b_values = (
         advantages.reshape(-1),
         returns.reshape(-1),
@@ -204,7 +146,8 @@ def update(
     for epoch in range(args.update_epochs):
         # num_minibatches parts of (nearly) equal size: no leftover part of one entry.
         for index in used[torch.randperm(len(used))].tensor_split(args.num_minibatches):
-            _, new_logprob, entropy, new_value = agent.act(b_x[index], b_actions[index])
+            x = tree_map(lambda x, index=index: x[index], b_x)
+            _, new_logprob, entropy, new_value = agent.act(x, b_actions[index])
             log_ratio = new_logprob - b_logprobs[index]
             ratio = log_ratio.exp()
             advantage = b_advantages[index]
@@ -244,9 +187,17 @@ def update(
 
 
 def batched_env(args: Args) -> BatchedParallelEnv | ShardedParallelEnv:
+    overrides = {"channel": None} if args.no_channel else {}
     if args.shards > 1:
-        return ShardedParallelEnv(args.scenario, args.num_envs, shards=args.shards, copy=False)
-    return BatchedParallelEnv(args.scenario, num_worlds=args.num_envs, copy=False)
+        return ShardedParallelEnv(
+            args.scenario, args.num_envs, shards=args.shards, copy=False, **overrides
+        )
+    return BatchedParallelEnv(args.scenario, num_worlds=args.num_envs, copy=False, **overrides)
+
+
+def run_name(args: Args) -> str:
+    """The run's folder under runs/ppo/: the scenario, and whether its channel was off."""
+    return args.scenario + ("-no-channel" if args.no_channel else "")
 
 
 def main(args: Args) -> dict:
@@ -254,17 +205,11 @@ def main(args: Args) -> dict:
     torch.set_num_threads(args.torch_threads)
     env = batched_env(args)
     space = env.single_observation_space
-    channels = input_channels(args.use_depth)
-    if getattr(space, "shape", None) is None or len(space.shape) != 2 or space.shape[1] < 4:
-        raise ValueError(
-            f"{args.scenario}: PPO reads a camera image of (rays, rgb + depth); "
-            f"the agents observe {space}"
-        )
-    slots, rays = env.num_slots, space.shape[0]
+    slots = env.num_slots
     names = env.possible_agents
     m = env.agents_per_world
     iterations = max(1, args.total_timesteps // (slots * args.num_steps))
-    csv_path = Path(args.csv or default_csv("ppo", args.scenario, args.seed))
+    csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
     run_dir = csv_path.with_suffix("")
     start = time.perf_counter()
     observation, infos = env.reset(seed=args.seed * args.num_envs)
@@ -274,14 +219,19 @@ def main(args: Args) -> dict:
     log = RunLog("ppo", str(csv_path), args.seed, args, counters)
     scalars = Scalars(run_dir if args.tensorboard else None)
 
-    agent = Agent(channels, rays, int(env.single_action_space.n), args.hidden, args.network)
-    policy = FromObservation(agent, channels)
+    agent = Agent(
+        space,
+        env.single_action_space,
+        args.hidden,
+        input_channels(args.use_depth),
+        args.network,
+    )
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
 
     def save(path: Path, update: int) -> None:
         write_checkpoint(
             path,
-            policy,
+            agent,
             observation,
             scenario=args.scenario,
             observation_space=space,
@@ -289,6 +239,7 @@ def main(args: Args) -> dict:
             extra={
                 "algorithm": "ppo",
                 "trained_with": ["self"],  # self-play: every slot is this policy
+                "overrides": {"channel": None} if args.no_channel else {},
                 "args": asdict(args),
                 "update": update,
                 "agent_steps": global_step,
@@ -298,8 +249,10 @@ def main(args: Args) -> dict:
         )
 
     T = args.num_steps
-    observations = torch.zeros((T, slots, channels, rays))
-    actions = torch.zeros((T, slots), dtype=torch.long)
+    observations = tree_map(lambda x: torch.zeros((T, *x.shape)), observation)
+    """The raw observations, as the env gives them (a dict of arrays for a Dict space)."""
+    actions = torch.zeros((T, slots, len(agent.sizes)), dtype=torch.long)
+    discrete = isinstance(env.single_action_space, gymnasium.spaces.Discrete)
     logprobs, rewards, values = (torch.zeros((T, slots)) for _ in range(3))
     acting = torch.zeros((T, slots), dtype=torch.bool)
     """Whether the env used the slot's action on that step."""
@@ -316,14 +269,15 @@ def main(args: Args) -> dict:
         if args.anneal_lr:
             optimizer.param_groups[0]["lr"] = lr
         for t in range(T):
-            x = torch.from_numpy(observation[..., :channels]).transpose(1, 2)
-            observations[t] = x
+            for stored, x in zip(tree_leaves(observations), tree_leaves(observation)):
+                stored[t] = torch.from_numpy(x)
             acting[t] = torch.from_numpy(next_acting)
             with torch.inference_mode():
-                action, logprob, _, value = agent.act(observations[t])
+                action, logprob, _, value = agent.act(tree_map(lambda x, t=t: x[t], observations))
             actions[t], logprobs[t], values[t] = action, logprob, value
             tick = time.perf_counter()
-            observation, reward, terminated, truncated, infos = env.step(action.numpy())
+            sent = action[:, 0] if discrete else action
+            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
             env_seconds += time.perf_counter() - tick
             global_step += int(next_acting.sum())
             done = terminated | truncated
@@ -346,8 +300,7 @@ def main(args: Args) -> dict:
             # The env uses a slot's action next step unless it just finished or was inert.
             next_acting = infos["active"] & ~done
         with torch.inference_mode():
-            x = torch.from_numpy(observation[..., :channels]).transpose(1, 2)
-            next_value = agent.value(x)
+            next_value = agent.value(tree_map(torch.from_numpy, observation))
         advantages = gae(rewards, values, ends, stops, next_value, args.gamma, args.gae_lambda)
         returns = advantages + values
         stats = update(

@@ -361,6 +361,35 @@ def test_ppo_logs_every_agent_of_every_episode_and_saves_what_plays(tmp_path):
     assert policy.act(observations["agent_0"]) in range(3)
 
 
+@pytest.mark.parametrize("channel", [True, False])
+def test_ppo_hears_and_speaks_where_the_scenario_has_a_channel(tmp_path, channel):
+    """signal_maps: a Dict observation (the map and the messages) and MultiDiscrete
+    actions (a move and a word); without its channel, one map and Discrete moves."""
+    run_module(
+        "baselines.ppo",
+        *("--scenario", "signal_maps", "--num-envs", "1", "--num-steps", "64"),
+        *("--total-timesteps", "256", "--checkpoint-every", "0", "--no-tensorboard"),
+        *(() if channel else ("--no-channel",)),
+        *("--csv", str(tmp_path / "seed_0.csv")),
+    )
+    from flatland_ma.policies.checkpoint import read_checkpoint
+    from flatland_ma.policies.named import make_policy
+
+    env = __import__("flatland_ma").parallel_env(
+        "signal_maps", **({} if channel else {"channel": None})
+    )
+    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    assert saved["overrides"] == ({} if channel else {"channel": None})
+    assert saved["action_sizes"] == ([3, 2] if channel else [3])
+    policy = make_policy(str(tmp_path / "seed_0.pt"), env, "agent_1", seed=0)
+    observations, _ = env.reset(seed=0)
+    assert env.action_space("agent_1").contains(policy.act(observations["agent_1"]))
+    if channel:  # the other way round, the checkpoint does not fit
+        silent = __import__("flatland_ma").parallel_env("signal_maps", channel=None)
+        with pytest.raises(ValueError, match="space"):
+            make_policy(str(tmp_path / "seed_0.pt"), silent, "agent_1")
+
+
 def test_ppo_advantages_match_a_hand_computation():
     """Two slots, three steps: slot 0 is truncated at step 1 (its next observation is the
     episode's last, whose value bootstraps), slot 1 terminates at step 0."""

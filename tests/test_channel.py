@@ -171,12 +171,13 @@ def test_the_batched_env_carries_the_words_as_separate_envs_do():
                 )
 
 
-def test_signal_rooms_scores_better_with_the_channel_than_without():
+@pytest.mark.parametrize("scenario", ["signal_rooms", "signal_maps"])
+def test_signalling_scores_better_with_the_channel_than_without(scenario):
     """The guide's words send the seeker straight to the goal's room; without them it
-    guesses, and a wrong guess costs the walk to the other room (scores in the file)."""
+    guesses, and a wrong guess costs the walk to the other room (scores in the files)."""
 
     def score(**overrides):
-        env = flatland_ma.parallel_env("signal_rooms", **overrides)
+        env = flatland_ma.parallel_env(scenario, **overrides)
 
         def make(agent):
             if agent == "agent_0":

@@ -133,3 +133,52 @@ def test_record_plays_a_checkpoint(tmp_path, capsys):
         == 2
     )
     assert "gone.pt: no such checkpoint file" in capsys.readouterr().err
+
+
+class Spoken(torch.nn.Module):
+    """A Dict observation (a map and the messages) to the logits of MultiDiscrete([3, 2]):
+    fixed move logits; the word's logits say back the word agent_0 was heard saying."""
+
+    def forward(self, observation):
+        heard = observation["messages"][:, 0, 1:]  # agent_0's row: the one-hot word
+        moves = (
+            torch.tensor([0.0, np.log(3.0), np.log(6.0)])
+            + 0.0 * observation["topdown"].sum(dim=(1, 2, 3))[:, None]
+        )
+        return torch.cat([moves, 20 * heard], dim=1)
+
+
+def test_a_network_on_a_dict_observation_acts_in_a_multidiscrete_space(tmp_path):
+    env = flatland_ma.parallel_env("signal_maps")
+    observations, _ = env.reset(seed=0)
+    example = {
+        key: np.stack([observations[a][key] for a in env.possible_agents])
+        for key in observations["agent_0"]
+    }
+    path = write_checkpoint(
+        tmp_path / "spoken.pt",
+        Spoken(),
+        example,
+        scenario="signal_maps",
+        observation_space=env.observation_space("agent_1"),
+        action_space=env.action_space("agent_1"),
+    )
+    assert read_checkpoint(path)["action_sizes"] == [3, 2]
+    policy = make_policy(str(path), env, "agent_1", seed=5)
+    assert isinstance(policy, CheckpointPolicy)
+    said = {key: value.copy() for key, value in observations["agent_1"].items()}
+    said["messages"][0, :] = [1.0, 0.0, 1.0]  # agent_0 said word 1
+    action = policy.act(said)
+    assert env.action_space("agent_1").contains(action) and action[1] == 1
+    batch = {key: np.repeat(value[None], 20_000, axis=0) for key, value in said.items()}
+    actions = policy.act_batch(batch)
+    assert actions.shape == (20_000, 2) and (actions[:, 1] == 1).all()
+    frequencies = np.bincount(actions[:, 0], minlength=3) / len(actions)
+    assert np.allclose(frequencies, [0.1, 0.3, 0.6], atol=0.015)
+    assert list(CheckpointPolicy(path, greedy=True).act(said)) == [2, 1]
+    # It plays whole episodes beside a shipped guide.
+    from flatland_ma.policies.rollout import play_episode
+
+    guide = make_policy("signaller", env, "agent_0")
+    returns, _ = play_episode(env, {"agent_0": guide, "agent_1": policy}, seed=1)
+    assert set(returns) == {"agent_0", "agent_1"}

@@ -149,6 +149,38 @@ def test_goal_items_end_the_episode_and_end_when_eaten():
     assert env.agents == [] and env.num_steps < 20
 
 
+def test_a_shared_item_rewards_every_agent_still_playing():
+    """agent_0 takes a shared +3 item, then a shared goal (+10) that ends its episode;
+    agent_2 was out of the episode before either (a terminal zone): only the agents
+    still playing are paid, the taker included."""
+    shared = {"color": "orange", "reward": 3.0, "shared": True, "respawn": "never"}
+    goal = {"color": "lime", "reward": 10.0, "shared": True, "terminal": True}
+    env = flatland_ma.parallel_env(
+        "fruits_poisons_multi",
+        n_agents=3,
+        items=[
+            {"name": "fruit", "positions": [[160, 150]], **shared},
+            {"name": "goal", "positions": [[200, 150]], **goal},
+        ],
+        zones=[{"rect": [0, 0, 40, 300], "terminal": True}],
+        **OPEN,
+    )
+    env.reset(seed=0)
+    place(env, 0, 120.0, 150.0, 0.0)
+    place(env, 1, 100.0, 250.0, 0.0)
+    place(env, 2, 46.0, 50.0, np.pi)  # a step west of the terminal zone
+    returns = dict.fromkeys(env.possible_agents, 0.0)
+    for _ in range(20):
+        _, rewards, _, _, infos = env.step({a: 1 if a == "agent_1" else 0 for a in env.agents})
+        for agent, reward in rewards.items():
+            returns[agent] += reward
+        if "agent_0" not in env.agents:
+            break
+    assert "agent_2" not in env.agents and "agent_1" in env.agents
+    assert returns == {"agent_0": 13.0, "agent_1": 13.0, "agent_2": 0.0}
+    assert infos["agent_0"]["fruit"] == 1 and infos["agent_1"]["fruit"] == 0
+
+
 def test_items_spawn_only_in_their_area():
     fruit = {
         "name": "fruits",

@@ -219,6 +219,7 @@ def item_group(spec: ItemSpec, index: int) -> ItemGroup:
         respawn=respawn,
         spawn=spec.spawn,
         terminal=spec.terminal,
+        shared=spec.shared,
         key=spec.key,
     )
 

@@ -37,18 +37,26 @@ def write_checkpoint(
     extra: dict | None = None,
 ) -> Path:
     """Save ``network`` (a torch module from a batch of raw observations like ``example``,
-    shape (batch, ...), to logits) with the facts needed to play it; ``extra`` holds
-    anything else to keep (arguments, the trainer's state). Written to a temporary file
-    and moved into place, so a reader never sees half a checkpoint."""
+    shape (batch, ...), or a dict of such batches for a ``Dict`` space, to logits) with
+    the facts needed to play it; ``extra`` holds anything else to keep (arguments, the
+    trainer's state). For a ``MultiDiscrete`` action space the logits of its components
+    come joined along the last axis. Written to a temporary file and moved into place, so
+    a reader never sees half a checkpoint."""
     import torch
+    from torch.utils._pytree import tree_map
 
     batch = torch.export.Dim("batch")
-    inputs = torch.as_tensor(np.ascontiguousarray(example[:2] if len(example) > 1 else example))
-    if len(inputs) == 1:  # export needs an example batch of two to leave the batch free
-        inputs = torch.cat([inputs, inputs])
+
+    def two(x) -> torch.Tensor:  # export needs an example batch of two to leave it free
+        x = torch.as_tensor(np.ascontiguousarray(x[:2]))
+        return torch.cat([x, x]) if len(x) == 1 else x
+
+    inputs = tree_map(two, example)
     network.eval()
     try:
-        program = torch.export.export(network, (inputs,), dynamic_shapes=({0: batch},))
+        program = torch.export.export(
+            network, (inputs,), dynamic_shapes=(tree_map(lambda _: {0: batch}, inputs),)
+        )
     finally:
         network.train()
     buffer = io.BytesIO()
@@ -59,6 +67,7 @@ def write_checkpoint(
         "scenario": scenario,
         "observation_space": str(observation_space),
         "action_space": str(action_space),
+        "action_sizes": _action_sizes(action_space),
         "program": buffer.getvalue(),
         **(extra or {}),
     }
@@ -68,6 +77,13 @@ def write_checkpoint(
     torch.save(data, part)
     os.replace(part, path)
     return path
+
+
+def _action_sizes(space: Any) -> list[int]:
+    """The number of choices of each component of a ``Discrete`` (one) or
+    ``MultiDiscrete`` action space."""
+    nvec = getattr(space, "nvec", None)
+    return [int(space.n)] if nvec is None else [int(n) for n in np.asarray(nvec).ravel()]
 
 
 def read_checkpoint(path: str | Path) -> dict:
@@ -116,16 +132,34 @@ class CheckpointPolicy:
                     f"{self.path}: trained for the {what} space {saved}, the agent has {space}"
                 )
 
-    def act(self, observation) -> int:
-        return int(self.act_batch(np.asarray(observation)[None])[0])
+    def act(self, observation):
+        """One agent's action: an int, or an array for a ``MultiDiscrete`` space."""
+        if isinstance(observation, dict):
+            batch = {key: np.asarray(value)[None] for key, value in observation.items()}
+        else:
+            batch = np.asarray(observation)[None]
+        action = self.act_batch(batch)[0]
+        return int(action) if np.ndim(action) == 0 else action
 
-    def act_batch(self, observations: np.ndarray) -> np.ndarray:
-        """One action per row of ``observations``."""
+    def act_batch(self, observations) -> np.ndarray:
+        """One action per row of ``observations`` (an array, or a dict of arrays for a
+        ``Dict`` space): shape (batch,) for a ``Discrete`` space, (batch, components) for
+        a ``MultiDiscrete`` one."""
         import torch
 
+        if isinstance(observations, dict):
+            inputs = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in observations.items()}
+        else:
+            inputs = torch.as_tensor(observations, dtype=torch.float32)
         with torch.inference_mode():
-            logits = self.program(torch.as_tensor(observations, dtype=torch.float32))
-        logits = logits.double().numpy()
+            logits = self.program(inputs).double().numpy()
+        sizes = self.data.get("action_sizes") or [logits.shape[1]]
+        parts = np.split(logits, np.cumsum(sizes)[:-1], axis=1)
+        actions = np.stack([self._choose(part) for part in parts], axis=1)
+        multi = str(self.data["action_space"]).startswith("MultiDiscrete")
+        return actions if multi else actions[:, 0]
+
+    def _choose(self, logits: np.ndarray) -> np.ndarray:
         if self.greedy:
             return logits.argmax(axis=1)
         p = np.exp(logits - logits.max(axis=1, keepdims=True))

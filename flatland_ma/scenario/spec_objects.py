@@ -135,6 +135,9 @@ class ItemSpec(Spec):
     many steps. Items with fixed positions reappear where they were."""
     terminal: Flag = False
     """Taking one ends the episode of the agent that took it (a goal)."""
+    shared: Flag = False
+    """Its reward goes to every agent still playing, not only to the one that took it
+    (a reward the agents earn together)."""
     key: Flag = False
     """A key: the agent that takes one holds it (``infos[agent]["keys"]``), and doors
     whose ``key`` names this group open to it."""

@@ -1,4 +1,5 @@
-"""Items: taken on touch for their reward; keys go to the taker's hand, goals end its
+"""Items: taken on touch for their reward (to the taker, or to every agent still playing
+for a ``shared`` group); keys go to the taker's hand, goals end its
 episode; taken items come back at once, after a delay, or never. Each agent's ``infos``
 count how many of each group it took (and, with key groups, which keys it holds)."""
 
@@ -28,7 +29,12 @@ class ItemRule(Rule):
             if not item.edible or record.done:
                 continue  # already taken this step, or by an agent whose episode ended
             group = item.group
-            step.rewards[i] += group.reward
+            if group.shared:
+                for j, other in enumerate(step.records):
+                    if not other.done:
+                        step.rewards[j] += group.reward
+            else:
+                step.rewards[i] += group.reward
             self.eaten[i, group.index] += 1
             if group.key:
                 record.keys.add(group.name)

@@ -147,6 +147,8 @@ class ItemGroup:
     """Where items of the group are placed at random; None: anywhere free."""
     terminal: bool = False
     """Taking one ends the taker's episode."""
+    shared: bool = False
+    """Its reward goes to every agent still playing, the taker included."""
     key: bool = False
     """The taker holds it as a key to doors that name the group."""
 
