@@ -128,12 +128,13 @@ def update(
     advantages,
     returns,
     values,
+    penalty=None,
 ) -> dict:
     """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
     mean losses. Clipped surrogate, clipped value loss, entropy bonus:
         L = -min(ratio A, clip(ratio, 1 - eps, 1 + eps) A)
             + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
-            - ent_coef * H,   ratio = pi(a|s) / pi_old(a|s)"""
+            - ent_coef * H [+ penalty()],   ratio = pi(a|s) / pi_old(a|s)"""
     used = acting.reshape(-1).nonzero().squeeze(1)
     b_x = tree_map(lambda x: x.reshape(-1, *x.shape[2:]), observations)
     b_actions, b_logprobs = actions.reshape(-1, actions.shape[-1]), logprobs.reshape(-1)
@@ -166,6 +167,8 @@ def update(
                 ).mean()
             )
             loss = policy_loss + args.vf_coef * value_loss - args.ent_coef * entropy.mean()
+            if penalty is not None:  # e.g. EWC's pull towards earlier tasks' parameters
+                loss = loss + penalty()
             optimizer.zero_grad(set_to_none=True)
             loss.backward()
             nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
@@ -184,6 +187,82 @@ def update(
                     ):
                         stats.setdefault(key, []).append(float(value))
     return {key: float(np.mean(values)) for key, values in stats.items()}
+
+
+class Rollout:
+    """T steps of every slot of a batched env: what the policy saw and did, and what came
+    of it; ``collect`` fills it, ``learn`` runs PPO's epochs over it."""
+
+    def __init__(self, agent: Agent, env, observation, steps: int):
+        T, slots = steps, env.num_slots
+        self.steps = steps
+        self.observations = tree_map(lambda x: torch.zeros((T, *x.shape)), observation)
+        """The raw observations, as the env gives them (a dict of arrays for a Dict space)."""
+        self.actions = torch.zeros((T, slots, len(agent.sizes)), dtype=torch.long)
+        self.discrete = isinstance(env.single_action_space, gymnasium.spaces.Discrete)
+        self.logprobs, self.rewards, self.values = (torch.zeros((T, slots)) for _ in range(3))
+        self.acting = torch.zeros((T, slots), dtype=torch.bool)
+        """Whether the env used the slot's action on that step."""
+        self.ends, self.stops = torch.zeros((T, slots)), torch.zeros((T, slots))
+        """Whether the slot's episode ended on that step (terminated or truncated), and
+        whether it terminated (no bootstrap)."""
+        self.next_acting = np.ones(slots, bool)
+        """Whether the env will use each slot's next action."""
+        self.env_seconds = 0.0
+
+    def collect(self, agent: Agent, env, observation, reward_scale: float, after_step):
+        """Act for ``steps`` steps from ``observation``; after each,
+        ``after_step(reward, terminated, done, infos, acted)`` with ``acted`` the number
+        of slots whose action the env used. Returns the last observation."""
+        for t in range(self.steps):
+            for stored, x in zip(tree_leaves(self.observations), tree_leaves(observation)):
+                stored[t] = torch.from_numpy(x)
+            self.acting[t] = torch.from_numpy(self.next_acting)
+            with torch.inference_mode():
+                action, logprob, _, value = agent.act(
+                    tree_map(lambda x, t=t: x[t], self.observations)
+                )
+            self.actions[t], self.logprobs[t], self.values[t] = action, logprob, value
+            tick = time.perf_counter()
+            sent = action[:, 0] if self.discrete else action
+            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
+            self.env_seconds += time.perf_counter() - tick
+            done = terminated | truncated
+            self.rewards[t] = torch.from_numpy(reward * reward_scale)
+            self.ends[t] = torch.from_numpy(done)
+            self.stops[t] = torch.from_numpy(terminated)
+            after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
+            # The env uses a slot's action next step unless it just finished or was inert.
+            self.next_acting = infos["active"] & ~done
+        return observation
+
+    def learn(self, agent: Agent, optimizer, args, observation, penalty=None) -> dict:
+        """GAE from the value of ``observation`` (what the last step returned), then
+        PPO's epochs (``update``), with ``penalty()`` added to the loss if given."""
+        with torch.inference_mode():
+            next_value = agent.value(tree_map(torch.from_numpy, observation))
+        advantages = gae(
+            self.rewards,
+            self.values,
+            self.ends,
+            self.stops,
+            next_value,
+            args.gamma,
+            args.gae_lambda,
+        )
+        return update(
+            agent,
+            optimizer,
+            args,
+            self.acting,
+            self.observations,
+            self.actions,
+            self.logprobs,
+            advantages,
+            advantages + self.values,
+            self.values,
+            penalty,
+        )
 
 
 def batched_env(args: Args) -> BatchedParallelEnv | ShardedParallelEnv:
@@ -248,73 +327,35 @@ def main(args: Args) -> dict:
             },
         )
 
-    T = args.num_steps
-    observations = tree_map(lambda x: torch.zeros((T, *x.shape)), observation)
-    """The raw observations, as the env gives them (a dict of arrays for a Dict space)."""
-    actions = torch.zeros((T, slots, len(agent.sizes)), dtype=torch.long)
-    discrete = isinstance(env.single_action_space, gymnasium.spaces.Discrete)
-    logprobs, rewards, values = (torch.zeros((T, slots)) for _ in range(3))
-    acting = torch.zeros((T, slots), dtype=torch.bool)
-    """Whether the env used the slot's action on that step."""
-    ends, stops = torch.zeros((T, slots)), torch.zeros((T, slots))
-    """Whether the slot's episode ended on that step (terminated or truncated), and whether
-    it terminated (no bootstrap)."""
-    next_acting = np.ones(slots, bool)
+    rollout = Rollout(agent, env, observation, args.num_steps)
     episode_returns = np.zeros(slots)
     finished: dict[int, tuple[float, dict]] = {}
     """Each slot's return and counters at its episode's end, until its world's ends."""
     episodes, global_step = 0, 0
+
+    def after_step(reward, terminated, done, infos, acted: int) -> None:
+        nonlocal episodes, global_step
+        global_step += acted
+        episode_returns[:] += reward
+        for slot in np.flatnonzero(done):
+            finished[slot] = (episode_returns[slot], {k: infos[k][slot] for k in counters})
+            episode_returns[slot] = 0.0
+        for w in sorted({int(slot // m) for slot in np.flatnonzero(done)}):
+            own = slice(w * m, (w + 1) * m)
+            if (done[own] | ~infos["active"][own]).all():  # the world's episode is over
+                for j in range(m):
+                    episode_return, info = finished.pop(w * m + j)
+                    log.episode(global_step, episode_return, info, names[j], episodes)
+                    scalars.add("charts/episodic_return", episode_return, global_step)
+                print(f"step={global_step} episode={episodes} world={w}", flush=True)
+                episodes += 1
+
     for iteration in range(1, iterations + 1):
         lr = args.learning_rate * (1 - (iteration - 1) / iterations)
         if args.anneal_lr:
             optimizer.param_groups[0]["lr"] = lr
-        for t in range(T):
-            for stored, x in zip(tree_leaves(observations), tree_leaves(observation)):
-                stored[t] = torch.from_numpy(x)
-            acting[t] = torch.from_numpy(next_acting)
-            with torch.inference_mode():
-                action, logprob, _, value = agent.act(tree_map(lambda x, t=t: x[t], observations))
-            actions[t], logprobs[t], values[t] = action, logprob, value
-            tick = time.perf_counter()
-            sent = action[:, 0] if discrete else action
-            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
-            env_seconds += time.perf_counter() - tick
-            global_step += int(next_acting.sum())
-            done = terminated | truncated
-            episode_returns += reward
-            rewards[t] = torch.from_numpy(reward * args.reward_scale)
-            ends[t] = torch.from_numpy(done)
-            stops[t] = torch.from_numpy(terminated)
-            for slot in np.flatnonzero(done):
-                finished[slot] = (episode_returns[slot], {k: infos[k][slot] for k in counters})
-                episode_returns[slot] = 0.0
-            for w in sorted({int(slot // m) for slot in np.flatnonzero(done)}):
-                own = slice(w * m, (w + 1) * m)
-                if (done[own] | ~infos["active"][own]).all():  # the world's episode is over
-                    for j in range(m):
-                        episode_return, info = finished.pop(w * m + j)
-                        log.episode(global_step, episode_return, info, names[j], episodes)
-                        scalars.add("charts/episodic_return", episode_return, global_step)
-                    print(f"step={global_step} episode={episodes} world={w}", flush=True)
-                    episodes += 1
-            # The env uses a slot's action next step unless it just finished or was inert.
-            next_acting = infos["active"] & ~done
-        with torch.inference_mode():
-            next_value = agent.value(tree_map(torch.from_numpy, observation))
-        advantages = gae(rewards, values, ends, stops, next_value, args.gamma, args.gae_lambda)
-        returns = advantages + values
-        stats = update(
-            agent,
-            optimizer,
-            args,
-            acting,
-            observations,
-            actions,
-            logprobs,
-            advantages,
-            returns,
-            values,
-        )
+        observation = rollout.collect(agent, env, observation, args.reward_scale, after_step)
+        stats = rollout.learn(agent, optimizer, args, observation)
         sps = global_step / (time.perf_counter() - start)
         for key, value in {
             **stats,
@@ -326,7 +367,7 @@ def main(args: Args) -> dict:
             save(run_dir / f"update_{iteration:05d}.pt", iteration)
     save(csv_path.with_suffix(".pt"), iterations)
     scalars.close()
-    summary = log.close(global_step, env_seconds)
+    summary = log.close(global_step, env_seconds + rollout.env_seconds)
     print(
         f"done: {global_step} agent-steps in {time.perf_counter() - start:.0f} s, "
         f"env {summary['env_share']:.1%} of it",
