@@ -11,6 +11,7 @@ import numpy as np
 
 from flatland_ma import __version__
 from flatland_ma.evaluation import command as evaluation
+from flatland_ma.lifelong import command as lifelong
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 
@@ -107,6 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     bench.add_argument("--no-ppo", action="store_true", help="with --scale: skip PPO")
 
     evaluation.add_parser(commands)
+    lifelong.add_parser(commands)
 
     args = parser.parse_args(argv)
     command = {
@@ -117,6 +119,7 @@ def main(argv: list[str] | None = None) -> int:
         "play": _play,
         "bench": _bench,
         "evaluate": evaluation.run,
+        "lifelong": lifelong.run,
     }[args.command]
     try:
         status = command(args)

@@ -26,6 +26,7 @@ from typing import Annotated, Any
 from pydantic import Field, ValidationError, model_validator
 
 from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError
+from flatland_ma.scenario.loader import file_text
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.types import Spec
 from flatland_ma.scenario.yaml_reader import parse_yaml
@@ -100,7 +101,7 @@ def load_suite(name: str | Path) -> SuiteSpec:
     if not path.is_file():
         raise FileNotFoundError(f"no suite file {path}")
     marks: Marks = {}
-    raw = parse_yaml(path.read_text(encoding="utf-8"), str(path), marks)
+    raw = parse_yaml(file_text(path), str(path), marks)
     try:
         return SuiteSpec.model_validate(raw)
     except ValidationError as err:

@@ -128,20 +128,27 @@ def check_keywords(overrides: Mapping, source: str) -> None:
         raise UnknownKeywordError(problems)
 
 
-def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Marks]:
-    """Parse a file (following ``extends``) into plain data and the line of every key."""
-    path = scenario_path(name)
+def file_text(path: Path) -> str:
+    """The text of a file of this package's formats (scenarios, suites, streams);
+    ``ScenarioError`` naming the file (and the line of a byte that is not UTF-8)."""
     source = str(path)
     try:
         data = path.read_bytes()
     except OSError as err:
         raise ScenarioError([Problem(source, None, (), f"cannot read the file: {err}")]) from None
     try:
-        text = data.decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError as err:
         line = data.count(b"\n", 0, err.start) + 1
         message = f"not UTF-8 text: {err.reason} (byte {data[err.start]:#04x})"
         raise ScenarioError([Problem(source, line, (), message)]) from None
+
+
+def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Marks]:
+    """Parse a file (following ``extends``) into plain data and the line of every key."""
+    path = scenario_path(name)
+    source = str(path)
+    text = file_text(path)
     marks: Marks = {}
     raw = parse_yaml(text, source, marks)
     base_name = raw.pop("extends", None)

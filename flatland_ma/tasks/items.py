@@ -17,6 +17,8 @@ class ItemRule(Rule):
         self.world, self.placer = ctx.world, ctx.placer
         self.groups, self.records = ctx.groups, ctx.records
         self.eaten = np.zeros((len(ctx.bodies), len(ctx.groups)), np.int64)
+        self.values = np.array([g.reward for g in ctx.groups], np.float64)
+        """Each group's reward, the file's at reset; a drifting world changes it."""
         self.has_keys = any(g.key for g in ctx.groups)
         self.items = ctx.world.of_type(Item)
         self._waiting: list[Item] = []
@@ -29,12 +31,13 @@ class ItemRule(Rule):
             if not item.edible or record.done:
                 continue  # already taken this step, or by an agent whose episode ended
             group = item.group
+            value = float(self.values[group.index])
             if group.shared:
                 for j, other in enumerate(step.records):
                     if not other.done:
-                        step.rewards[j] += group.reward
+                        step.rewards[j] += value
             else:
-                step.rewards[i] += group.reward
+                step.rewards[i] += value
             self.eaten[i, group.index] += 1
             if group.key:
                 record.keys.add(group.name)

@@ -165,12 +165,16 @@ class World:
 
     # -- questions ----------------------------------------------------------------------
 
-    def is_free(self, x: float, y: float, radius: float) -> bool:
-        """True if a disc of ``radius`` at (x, y) lies in the arena and touches nothing."""
+    def is_free(self, x: float, y: float, radius: float, ignore: Entity | None = None) -> bool:
+        """True if a disc of ``radius`` at (x, y) lies in the arena and touches nothing
+        (but ``ignore``'s own shapes)."""
         width, height = self.size
         if not (radius <= x <= width - radius and radius <= y <= height - radius):
             return False
-        return not self.space.point_query((x, y), radius, _SOLID_OR_ITEM)
+        hits = self.space.point_query((x, y), radius, _SOLID_OR_ITEM)
+        if ignore is not None:
+            hits = [hit for hit in hits if hit.shape not in ignore.shapes]
+        return not hits
 
     def is_clear(self, entity: Entity) -> bool:
         """Whether nothing solid overlaps the entity's shapes (e.g. a doorway)."""

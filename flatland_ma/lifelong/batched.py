@@ -1,0 +1,199 @@
+"""One life through a stream's tasks for many worlds at once: the batched env.
+
+``StreamBatchedEnv`` has the interface of ``flatland_ma.envs.vector.BatchedParallelEnv``
+(stacked observations, arrays of rewards, terminations and truncations, ``infos`` of
+arrays with ``active``; Gymnasium's NEXT_STEP autoreset), and its slots are the focal
+agents of every world: world ``w``'s ``j``-th focal agent is slot
+``w * agents_per_world + j``. Every world lives the one life of one learner:
+
+- the clock counts the agent-steps of every focal slot whose action the env used (not
+  inert slots, not the slots of a world being reset);
+- on the step at which the clock reaches the end of the task's segment, every focal slot
+  still playing is truncated and ``infos["task_switch"]`` is True; one step adds up to
+  ``num_slots`` agent-steps, so the switch comes on the first step whose count reaches the
+  end (it is exact when the segment's length is a multiple of the slots that act);
+- the next step starts every world in the next task (its actions are not used; reward 0,
+  neither termination nor truncation), world ``w`` seeded from the life's generator.
+
+``infos["task"]`` holds the task's index for every slot. ``reset(seed=s)`` starts the
+life: the first task's worlds reset with ``s + w``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from flatland_ma.envs.vector import BatchedParallelEnv
+from flatland_ma.lifelong.drift import Drift
+from flatland_ma.lifelong.envs import TASK, announced, background_policies
+from flatland_ma.lifelong.streams import Stream, load_stream
+
+
+def task_batched(
+    stream: Stream, task: int, num_worlds: int, copy: bool = False, parallel: bool = True
+) -> BatchedParallelEnv:
+    """The worlds of the stream's task ``task``, all agents slots, no switching (rays
+    cast over numba's threads unless ``parallel`` is False)."""
+    env = BatchedParallelEnv(
+        stream.scenarios[task], num_worlds=num_worlds, copy=copy, parallel=parallel
+    )
+    if stream.never_ending:
+        for world in env.worlds:
+            world.step_limit = None
+    return env
+
+
+class StreamBatchedEnv:
+    """``num_worlds`` worlds living one life through ``stream``; see the module's docstring."""
+
+    def __init__(self, stream: Any, num_worlds: int = 1, copy: bool = True):
+        self.stream = load_stream(stream)
+        self.num_worlds = num_worlds
+        self.copy = copy
+        self.segments = self.stream.segments()
+        self.tasks = len(self.stream.scenarios)
+        self._envs: dict[int, BatchedParallelEnv] = {}
+        first = self._env(0)
+        focal = self.stream.focal(0)
+        self.possible_agents = [first.possible_agents[i] for i in focal]
+        self.agents_per_world = len(focal)
+        self.num_slots = num_worlds * self.agents_per_world
+        space = first.worlds[0].observation_space(self.possible_agents[0])
+        self.single_observation_space = (
+            announced(space, self.tasks) if self.stream.spec.announce else space
+        )
+        self.single_action_space = first.worlds[0].action_space(self.possible_agents[0])
+        self.clock = 0
+        self.segment = 0
+        self._life: np.random.Generator | None = None
+        self._pending = False
+        self._acting = np.zeros(self.num_slots, bool)
+        self._backgrounds: list[dict] = []
+        self._observations: Any = None
+        ne = self.stream.spec.never_ending
+        self._drift = Drift(ne.drift) if ne is not None else None
+
+    @property
+    def task(self) -> int:
+        if not self.segments:
+            return 0
+        return self.segments[min(self.segment, len(self.segments) - 1)][0]
+
+    @property
+    def env(self) -> BatchedParallelEnv:
+        return self._env(self.task)
+
+    def _env(self, task: int) -> BatchedParallelEnv:
+        if task not in self._envs:
+            self._envs[task] = task_batched(self.stream, task, self.num_worlds)
+        return self._envs[task]
+
+    def _slots(self) -> np.ndarray:
+        """The inner env's slot of each focal slot."""
+        m = self.env.agents_per_world
+        focal = self.stream.focal(self.task)
+        return np.array([w * m + f for w in range(self.num_worlds) for f in focal], np.int64)
+
+    # -- the loop -----------------------------------------------------------------------
+
+    def reset(self, seed: int | list | None = None, options: dict | None = None):
+        """Start a life (see the module's docstring)."""
+        self._life = np.random.default_rng(seed if isinstance(seed, int) else None)
+        self.clock, self.segment, self._pending = 0, 0, False
+        return self._start(seed)
+
+    def _start(self, seed):
+        env = self.env
+        assert self._life is not None
+        self._backgrounds = [
+            background_policies(self.stream, self.task, world, self._life) for world in env.worlds
+        ]
+        observations, infos = env.reset(seed=seed)
+        self._observations = observations
+        self._acting[:] = True
+        rewards = np.zeros(self.num_slots)
+        flags = np.zeros(self.num_slots, bool)
+        return self._out(observations, rewards, flags, flags, infos)[0::4]
+
+    def step(self, actions):
+        actions = np.asarray(actions)
+        if len(actions) != self.num_slots:
+            raise ValueError(f"expected one action per slot ({self.num_slots}), got {len(actions)}")
+        if self._life is None:
+            raise RuntimeError("call reset() first")
+        if self._pending:  # every world starts the next task; the actions are not used
+            self._pending = False
+            self.segment += 1
+            seeds = [int(s) for s in self._life.integers(2**31, size=self.num_worlds)]
+            observations, infos = self._start(seeds)
+            zeros = np.zeros(self.num_slots, bool)
+            return observations, np.zeros(self.num_slots), zeros, zeros.copy(), infos
+        env = self.env
+        slots = self._slots()
+        full = self._full(env, actions, slots)
+        acted = int(self._acting.sum())
+        observations, rewards, terminations, truncations, infos = env.step(full)
+        if self._drift is not None:
+            for world in env.worlds:
+                self._drift.apply(world)
+        self._observations = observations
+        self.clock += acted
+        rewards, terminations, truncations = rewards[slots], terminations[slots], truncations[slots]
+        done = terminations | truncations
+        switch = np.zeros(self.num_slots, bool)
+        if (
+            self.segments
+            and self.segment < len(self.segments)
+            and self.clock >= self.segments[self.segment][2]
+        ):
+            switch = infos["active"][slots] & ~done | done
+            truncations = truncations | (infos["active"][slots] & ~done)
+            self._pending = True
+        self._acting = infos["active"][slots] & ~(terminations | truncations)
+        out = self._out(observations, rewards, terminations, truncations, infos)
+        out[4]["task_switch"] = switch
+        return out
+
+    def _full(self, env: BatchedParallelEnv, actions: np.ndarray, slots: np.ndarray) -> np.ndarray:
+        """Every inner slot's action: the learner's at its slots, the background's elsewhere."""
+        if len(slots) == env.num_slots and not any(self._backgrounds):
+            return actions
+        full: list = [None] * env.num_slots
+        for k, slot in enumerate(slots):
+            full[slot] = actions[k]
+        m = env.agents_per_world
+        observations = self._observations
+        for w, policies in enumerate(self._backgrounds):
+            for agent, policy in policies.items():
+                j = env.possible_agents.index(agent)
+                slot = w * m + j
+                if isinstance(observations, dict):
+                    seen = {key: value[slot] for key, value in observations.items()}
+                else:
+                    seen = observations[slot]
+                full[slot] = (
+                    policy.act(seen) if env._active[slot] else env.single_action_space.sample()
+                )
+        return np.array(full) if not isinstance(full[0], np.ndarray) else np.stack(full)
+
+    def _out(self, observations, rewards, terminations, truncations, infos):
+        slots = self._slots()
+        if isinstance(observations, dict):
+            observations = {key: value[slots] for key, value in observations.items()}
+        else:
+            observations = observations[slots]
+        if self.stream.spec.announce:
+            one_hot = np.zeros((self.num_slots, self.tasks), np.float32)
+            one_hot[:, self.task] = 1.0
+            if not isinstance(observations, dict):
+                observations = {"observation": observations}
+            observations = {**observations, TASK: one_hot}
+        out_infos = {key: np.asarray(value)[slots] for key, value in infos.items()}
+        out_infos[TASK] = np.full(self.num_slots, self.task, np.int64)
+        return observations, rewards, terminations, truncations, out_infos
+
+    def close(self) -> None:
+        for env in self._envs.values():
+            env.close()

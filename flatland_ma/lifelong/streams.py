@@ -1,0 +1,311 @@
+"""Task streams: files that say which tasks one life goes through, in which order and for
+how long.
+
+A stream lives in ``scenarios/streams/NAME.yaml`` (``list_streams()``), or any file::
+
+    description: "..."
+    announce: false            # true: the observation says which task is on
+    cycles: 1                  # the list of tasks, this many times over
+    eval: {every: 15000, episodes: 4}   # evaluation blocks the baselines run
+    tasks:
+      - name: fruits           # a label, unique in the stream
+        scenario: fruits_poisons
+        overrides: {...}       # keyword overrides of the scenario
+        steps: 150000          # agent-steps of the learner
+        focal: [agent_0]       # the agents the learner drives (default: every agent)
+        background: greedy     # the shipped policy that drives every other agent
+
+or, for the never-ending mode, one world and one episode that never ends while the
+items' values and places drift::
+
+    never_ending:
+      scenario: fruits_poisons
+      drift: {value_step: 0.05, value_bounds: [-1, 1], move: 0.5}
+
+Every task must give the learner the same observation and action spaces: one policy lives
+the whole life. Faults are reported with the file, line and key path, as scenario files'
+are; a task's scenario with its overrides is loaded and checked when the stream is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import Field, ValidationError, model_validator
+
+from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError, locate
+from flatland_ma.scenario.loader import file_text
+from flatland_ma.scenario.messages import problems_from
+from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.scenario.types import Spec
+from flatland_ma.scenario.yaml_reader import parse_yaml
+
+STREAMS = "flatland_ma.scenarios"
+"""The package whose ``streams`` folder holds the shipped streams."""
+Label = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
+ScenarioName = Annotated[str, Field(strict=True, min_length=1, max_length=500)]
+MAX_STEPS = 10**9
+"""The longest a task may last, in agent-steps."""
+
+
+class TaskSpec(Spec):
+    """One task of a stream: a scenario (with overrides), how long it lasts, and for a
+    multi-agent scenario which agents the learner drives and who drives the rest."""
+
+    name: Label
+    """The task's label, unique in the stream (tables and plots use it)."""
+    scenario: ScenarioName
+    """A shipped scenario's name or a scenario file's path."""
+    overrides: dict[str, Any] = {}
+    """Keyword overrides of the scenario, as ``load_scenario`` takes them."""
+    steps: Annotated[int, Field(strict=True, ge=1, le=MAX_STEPS)]
+    """How long the task lasts, in the learner's agent-steps."""
+    focal: Annotated[tuple[Label, ...], Field(min_length=1, max_length=64)] | None = None
+    """The agents the learner drives (agent names or team names); None: every agent."""
+    background: Annotated[str, Field(strict=True, min_length=1, max_length=500)] | None = None
+    """The shipped policy that drives every agent not focal."""
+
+    @model_validator(mode="after")
+    def _background_with_focal(self):
+        if (self.focal is None) != (self.background is None):
+            raise ValueError(
+                "focal and background go together: who the learner drives, who the rest"
+            )
+        return self
+
+
+class EvalSpec(Spec):
+    """Evaluation blocks during a life, as the baselines run them."""
+
+    every: Annotated[int, Field(strict=True, ge=1, le=MAX_STEPS)] = 15_000
+    """Agent-steps between blocks."""
+    episodes: Annotated[int, Field(strict=True, ge=1, le=100)] = 4
+    """Episodes of every task in each block."""
+
+
+class DriftSpec(Spec):
+    """How the never-ending world changes, per step."""
+
+    value_step: Annotated[float, Field(strict=True, ge=0, le=10, allow_inf_nan=False)] = 0.02
+    """Standard deviation of each item group's reward's random walk, per step."""
+    value_bounds: tuple[float, float] = (-1.0, 1.0)
+    """The walk is reflected at these bounds."""
+    move: Annotated[float, Field(strict=True, ge=0, le=50, allow_inf_nan=False)] = 0.5
+    """Standard deviation of each item's displacement per step, in world units (it stays
+    where it is when the new place is not free)."""
+
+    @model_validator(mode="after")
+    def _ordered(self):
+        low, high = self.value_bounds
+        if not low < high:
+            raise ValueError("value_bounds must be [low, high] with low < high")
+        return self
+
+
+class NeverEndingSpec(Spec):
+    """One world, one episode that never ends, drifting."""
+
+    scenario: ScenarioName
+    overrides: dict[str, Any] = {}
+    drift: DriftSpec = DriftSpec()
+
+
+class StreamSpec(Spec):
+    description: Annotated[str, Field(strict=True, max_length=1000)] = ""
+    """What the stream tests."""
+    announce: Annotated[bool, Field(strict=True)] = False
+    """Tell the learner which task is on: the observation gains a ``task`` entry (one-hot)."""
+    cycles: Annotated[int, Field(strict=True, ge=1, le=1000)] = 1
+    """The list of tasks, this many times over."""
+    eval: EvalSpec = EvalSpec()
+    tasks: Annotated[tuple[TaskSpec, ...], Field(min_length=1, max_length=256)] | None = None
+    """The tasks, in order."""
+    never_ending: NeverEndingSpec | None = None
+    """Instead of tasks: the never-ending mode."""
+
+    @model_validator(mode="after")
+    def _one_mode(self):
+        if (self.tasks is None) == (self.never_ending is None):
+            raise ValueError("a stream has either tasks or never_ending, not both, not neither")
+        if self.tasks is not None:
+            seen: dict[str, int] = {}
+            for t, task in enumerate(self.tasks):
+                if task.name in seen:
+                    raise SpecError(
+                        ("tasks", t, "name"), f"{task.name!r} names tasks[{seen[task.name]}] too"
+                    )
+                seen[task.name] = t
+        return self
+
+
+@dataclass
+class Stream:
+    """A loaded stream: its spec, and each task's checked scenario spec."""
+
+    name: str
+    spec: StreamSpec
+    scenarios: list[ScenarioSpec]
+    """Each task's scenario with its overrides (one, for the never-ending mode)."""
+    source: str = ""
+    _focal: list[list[int]] = field(default_factory=list)
+
+    @property
+    def task_labels(self) -> list[str]:
+        if self.spec.tasks is None:
+            return ["never_ending"]
+        return [task.name for task in self.spec.tasks]
+
+    @property
+    def eval(self) -> EvalSpec:
+        return self.spec.eval
+
+    @property
+    def never_ending(self) -> bool:
+        return self.spec.never_ending is not None
+
+    def task(self, index: int) -> TaskSpec:
+        assert self.spec.tasks is not None, "the never-ending mode has no tasks"
+        return self.spec.tasks[index]
+
+    def focal(self, index: int) -> list[int]:
+        """The indices of the agents the learner drives in task ``index``."""
+        return self._focal[index]
+
+    def segments(self) -> list[tuple[int, int, int]]:
+        """The life, in order: (task index, first agent-step, end agent-step, exclusive),
+        over every cycle; empty for the never-ending mode."""
+        out, start = [], 0
+        for _ in range(self.spec.cycles):
+            for i, task in enumerate(self.spec.tasks or ()):
+                out.append((i, start, start + task.steps))
+                start += task.steps
+        return out
+
+    def scaled(self, factor: float) -> Stream:
+        """The same stream with every task ``factor`` times as long (at least one step)."""
+        if factor == 1 or self.spec.tasks is None:
+            return self
+        tasks = tuple(
+            t.model_copy(update={"steps": max(1, round(t.steps * factor))}) for t in self.spec.tasks
+        )
+        spec = self.spec.model_copy(update={"tasks": tasks})
+        return Stream(self.name, spec, self.scenarios, self.source, self._focal)
+
+    @property
+    def length(self) -> int | None:
+        """Agent-steps in the whole life; None: never-ending."""
+        segments = self.segments()
+        return segments[-1][2] if segments else None
+
+
+def stream_dir() -> Path:
+    return Path(str(resources.files(STREAMS))) / "streams"
+
+
+def list_streams() -> list[str]:
+    """Names of the shipped streams, sorted."""
+    return sorted(p.stem for p in stream_dir().glob("*.yaml"))
+
+
+def load_stream(name: str | Path) -> Stream:
+    """A shipped stream by name, or a stream file; ``ScenarioError`` (file, line, key
+    path) if it is not a valid stream, its scenarios included."""
+    if isinstance(name, Stream):
+        return name
+    path = Path(name)
+    if not path.suffix:
+        if str(name) not in list_streams():
+            raise ValueError(f"no stream {str(name)!r}; streams: {', '.join(list_streams())}")
+        path = stream_dir() / f"{name}.yaml"
+    if not path.is_file():
+        raise FileNotFoundError(f"no stream file {path}")
+    source = str(path)
+    marks: Marks = {}
+    raw = parse_yaml(file_text(path), source, marks)
+    try:
+        spec = StreamSpec.model_validate(raw)
+    except ValidationError as err:
+        raise ScenarioError(problems_from(err.errors(), StreamSpec, raw, marks, source)) from None
+    return _checked(path.stem, spec, marks, source)
+
+
+def _checked(name: str, spec: StreamSpec, marks: Marks, source: str) -> Stream:
+    """Each task's scenario loaded and checked, faults located at the task's keys; every
+    task's learner spaces equal."""
+    from flatland_ma.build.feasibility import check_scenario
+    from flatland_ma.scenario.loader import load_scenario
+
+    def fault(path: tuple, message: str) -> ScenarioError:
+        return ScenarioError([locate(marks, path, message, source)])
+
+    entries: list[tuple[tuple, Any]] = [
+        (("tasks", t), task) for t, task in enumerate(spec.tasks or ())
+    ]
+    if spec.never_ending is not None:
+        entries = [(("never_ending",), spec.never_ending)]
+    scenarios, focal = [], []
+    for key, task in entries:
+        try:
+            scenario = load_scenario(task.scenario, **task.overrides)
+            check_scenario(scenario)
+        except (ScenarioError, ValueError, TypeError) as err:
+            where = "scenario" if not isinstance(err, ScenarioError) else "overrides"
+            first = str(err).splitlines()[0] if str(err) else type(err).__name__
+            raise fault((*key, where), f"{task.scenario}: {first}") from None
+        scenarios.append(scenario)
+        focal.append(_focal_indices(scenario, task, key, fault))
+    stream = Stream(name, spec, scenarios, source, focal)
+    _same_spaces(stream, entries, fault)
+    return stream
+
+
+def _focal_indices(scenario: ScenarioSpec, task, key, fault) -> list[int]:
+    """The agents the learner drives: every one, or those ``task.focal`` names."""
+    names = [f"agent_{i}" for i in range(scenario.n_agents)]
+    focal = getattr(task, "focal", None)
+    if focal is None:
+        return list(range(scenario.n_agents))
+    teams = {team.name: team for team in scenario.teams}
+    out: list[int] = []
+    for f, name in enumerate(focal):
+        if name in names:
+            out.append(names.index(name))
+        elif name in teams:
+            first = sum(team.size for team in scenario.teams[: list(teams).index(name)])
+            out += range(first, first + teams[name].size)
+        else:
+            raise fault((*key, "focal", f), f"{name!r} is no agent or team of {task.scenario}")
+    if len(out) == scenario.n_agents:
+        raise fault((*key, "focal"), "every agent is focal: leave background for someone")
+    return sorted(set(out))
+
+
+def _same_spaces(stream: Stream, entries, fault) -> None:
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+
+    first = None
+    for (key, _), scenario, focal in zip(entries, stream.scenarios, stream._focal):
+        env = FlatlandParallelEnv(scenario)
+        spaces = {
+            (
+                str(env.observation_space(env.possible_agents[i])),
+                str(env.action_space(env.possible_agents[i])),
+            )
+            for i in focal
+        }
+        env.close()
+        if len(spaces) > 1:
+            raise fault(key, f"the learner's agents have different spaces here: {sorted(spaces)}")
+        (space,) = spaces
+        if first is None:
+            first = (key, space)
+        elif space != first[1]:
+            raise fault(
+                key,
+                f"the learner observes {space[0]} and acts in {space[1]} here, but "
+                f"{first[1][0]} and {first[1][1]} in the first task: one policy lives "
+                "the whole life",
+            )

@@ -1,0 +1,254 @@
+"""Task streams: the shipped files, switching at exactly the stated step in every interface,
+the task in the infos (and in the observation when announced), the ecosystem's checkers,
+determinism across a switch, background partners, the never-ending drift, and located
+faults in stream files."""
+
+from __future__ import annotations
+
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from pettingzoo.test import api_test, parallel_api_test
+
+from flatland_ma.lifelong import (
+    StreamBatchedEnv,
+    StreamGymEnv,
+    StreamParallelEnv,
+    list_streams,
+    load_stream,
+    stream_aec_env,
+)
+from flatland_ma.lifelong.drift import item_rule, reflect
+from flatland_ma.scenario.errors import ScenarioError
+from flatland_ma.world.entities import Item
+
+SWAPPED = (
+    "    overrides:\n"
+    "      items:\n"
+    "        - {name: fruits, color: orange, reward: -10, count: 10}\n"
+    "        - {name: poisons, color: purple, reward: 10, count: 10}\n"
+)
+
+
+def two_tasks(tmp_path, first=7, second=5, cycles=1, announce=False, name="s.yaml"):
+    path = tmp_path / name
+    path.write_text(
+        f"announce: {str(announce).lower()}\ncycles: {cycles}\ntasks:\n"
+        f"  - {{name: paper, scenario: fruits_poisons, steps: {first}}}\n"
+        f"  - name: swapped\n    scenario: fruits_poisons\n    steps: {second}\n" + SWAPPED
+    )
+    return path
+
+
+def test_the_shipped_streams_load_with_the_kinds_of_change_the_issue_names():
+    assert set(list_streams()) >= {
+        "cross_domain",
+        "cross_objective",
+        "partner_shift",
+        "never_ending",
+    }
+    for name in ("cross_domain", "cross_objective"):
+        stream = load_stream(name)
+        assert len(stream.task_labels) >= 5
+        segments = stream.segments()
+        assert [s[0] for s in segments] == list(range(len(stream.task_labels)))
+        assert all(a == b for (_, _, a), (_, b, _) in zip(segments, segments[1:]))
+    assert load_stream("partner_shift").focal(0) == [0]
+    assert load_stream("never_ending").never_ending
+
+
+def test_the_parallel_env_switches_at_the_stated_step_and_cycles(tmp_path):
+    env = StreamParallelEnv(two_tasks(tmp_path, cycles=2))
+    observations, infos = env.reset(seed=3)
+    assert infos["agent_0"]["task"] == 0
+    tasks, switches = [], []
+    for step in range(1, 25):
+        if not env.agents:
+            observations, infos = env.reset()
+        _, rewards, terminations, truncations, infos = env.step({"agent_0": step % 3})
+        tasks.append(infos["agent_0"]["task"])
+        if infos["agent_0"].get("task_switch"):
+            assert truncations["agent_0"] and env.agents == []
+            switches.append(env.clock)
+    assert switches == [7, 12, 19, 24]
+    assert tasks == [0] * 7 + [1] * 5 + [0] * 7 + [1] * 5
+
+
+def test_the_gymnasium_and_aec_envs_switch_at_the_same_step(tmp_path):
+    env = StreamGymEnv(two_tasks(tmp_path))
+    env.reset(seed=0)
+    for step in range(1, 8):
+        _, _, terminated, truncated, info = env.step(0)
+        assert info["task"] == 0 and truncated == (step == 7) and not terminated
+    _, info = env.reset()
+    assert info["task"] == 1
+    aec = stream_aec_env(two_tasks(tmp_path))
+    aec.reset(seed=0)
+    steps = 0
+    for _ in aec.agent_iter():
+        _, _, terminated, truncated, info = aec.last()
+        if terminated or truncated:
+            assert steps == 7 and info.get("task_switch")
+            break
+        aec.step(1)
+        steps += 1
+
+
+def test_the_batched_env_switches_every_world_on_the_step_the_count_reaches():
+    """Two worlds: each step adds two agent-steps; the 8-step task ends on the 4th step,
+    and the next step starts the next task in both worlds."""
+    stream = load_stream("cross_objective")
+    env = StreamBatchedEnv(stream.scaled(8 / stream.task(0).steps), num_worlds=2)
+    observations, infos = env.reset(seed=0)
+    assert observations.shape == (2, 64, 4) and list(infos["task"]) == [0, 0]
+    for step in range(1, 5):
+        _, rewards, terminations, truncations, infos = env.step(np.array([0, 1]))
+        assert list(truncations) == [step == 4] * 2 and not terminations.any()
+        assert list(infos["task_switch"]) == [step == 4] * 2 and list(infos["task"]) == [0, 0]
+    assert env.clock == 8
+    _, rewards, terminations, truncations, infos = env.step(np.array([2, 2]))
+    assert list(infos["task"]) == [1, 1] and not (rewards.any() or truncations.any())
+    assert env.clock == 8  # the step that starts the task uses no action
+    env.step(np.array([0, 0]))
+    assert env.clock == 10
+
+
+def test_announcing_adds_the_task_to_the_observation(tmp_path):
+    env = StreamParallelEnv(two_tasks(tmp_path, announce=True))
+    observations, _ = env.reset(seed=0)
+    assert set(observations["agent_0"]) == {"observation", "task"}
+    assert list(observations["agent_0"]["task"]) == [1.0, 0.0]
+    assert env.observation_space("agent_0").contains(observations["agent_0"])
+    for _ in range(7):
+        env.step({"agent_0": 0})
+    observations, _ = env.reset()
+    assert list(observations["agent_0"]["task"]) == [0.0, 1.0]
+    silent = StreamParallelEnv(two_tasks(tmp_path, name="t.yaml"))
+    assert silent.reset(seed=0)[0]["agent_0"].shape == (64, 4)
+
+
+def test_the_ecosystem_checkers_pass_on_stream_envs(tmp_path):
+    path = two_tasks(tmp_path, first=30, second=30)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        parallel_api_test(StreamParallelEnv(path), num_cycles=80)
+        api_test(stream_aec_env(path), num_cycles=80)
+        check_env(StreamGymEnv(path), skip_render_check=True)
+        parallel_api_test(StreamParallelEnv("partner_shift"), num_cycles=20)
+
+
+def test_same_seed_and_actions_live_the_same_life_across_a_switch(tmp_path):
+    def life(env):
+        out, (observation, _) = [], env.reset(seed=11)
+        rng = np.random.default_rng(0)
+        for _ in range(20):
+            observation, reward, terminated, truncated, info = env.step(int(rng.integers(3)))
+            out.append((observation.copy(), reward, info["task"]))
+            if terminated or truncated:
+                observation, _ = env.reset()
+                out.append((observation.copy(), 0.0, -1))
+        return out
+
+    a, b = life(StreamGymEnv(two_tasks(tmp_path))), life(StreamGymEnv(two_tasks(tmp_path)))
+    assert [x[2] for x in a].count(-1) >= 2
+    for (oa, ra, ta), (ob, rb, tb) in zip(a, b):
+        assert np.array_equal(oa, ob) and ra == rb and ta == tb
+    env = StreamGymEnv(two_tasks(tmp_path))
+    env.reset(seed=11)
+    env.step(0)
+    copy = pickle.loads(pickle.dumps(env))
+    assert np.array_equal(copy.step(1)[0], env.step(1)[0])
+
+
+def test_background_partners_play_and_only_the_focal_agent_is_the_learners():
+    env = StreamParallelEnv("partner_shift")
+    observations, _ = env.reset(seed=0)
+    assert env.agents == ["agent_0"] and list(observations) == ["agent_0"]
+    start = [env.env.episode.bodies[i].body.position for i in range(4)]
+    for _ in range(20):
+        env.step({"agent_0": 1})  # the learner only turns
+    moved = [(env.env.episode.bodies[i].body.position - start[i]).length for i in range(4)]
+    assert moved[0] < 1.0 and min(moved[1:]) > 1.0 and sum(moved) > 60.0  # partners forage
+    batched = StreamBatchedEnv("partner_shift", num_worlds=2)
+    observations, infos = batched.reset(seed=0)
+    assert observations.shape == (2, 64, 4) and batched.num_slots == 2
+    batched.step(np.array([0, 0]))
+    assert batched.clock == 2
+
+
+def test_the_never_ending_world_never_ends_and_drifts_as_its_seed_says():
+    def run(seed):
+        env = StreamParallelEnv("never_ending")
+        env.reset(seed=seed)
+        items = [i for i in env.env.running.world.of_type(Item)]
+        start = [tuple(i.body.position) for i in items]
+        for _ in range(1200):  # over twice the scenario's 500 steps
+            _, _, terminations, truncations, _ = env.step({"agent_0": 0})
+            assert not (terminations["agent_0"] or truncations["agent_0"])
+        values = item_rule(env.env).values.copy()
+        moved = [np.hypot(*(np.array(i.body.position) - s)) for i, s in zip(items, start)]
+        return values, moved
+
+    values, moved = run(4)
+    assert np.all(np.abs(values - [10.0, -10.0]) > 0.1) and np.all(np.abs(values) <= 10)
+    assert np.median(moved) > 3.0
+    again, _ = run(4)
+    assert np.array_equal(values, again)
+    assert not np.array_equal(values, run(5)[0])
+
+
+def test_reflection_folds_a_walk_back_between_its_bounds():
+    assert np.allclose(
+        reflect(np.array([1.5, -1.25, 0.25, 3.5]), -1.0, 1.0), [0.5, -0.75, 0.25, -0.5]
+    )
+
+
+@pytest.mark.parametrize(
+    "body, where, words",
+    [
+        ("bogus: 1\ntasks: [{name: a, scenario: fruits_poisons, steps: 5}]\n", "bogus", ""),
+        (
+            "tasks:\n  - {name: a, scenario: fruits_poisons, steps: 10}\n"
+            "  - name: b\n    scenario: fruits_poisons\n    steps: 10\n"
+            "    overrides: {items: [{name: x, color: nocolour}]}\n",
+            "tasks[1].overrides",
+            "nocolour",
+        ),
+        (
+            "tasks:\n  - {name: a, scenario: fruits_poisons, steps: 10}\n"
+            "  - name: b\n    scenario: fruits_poisons\n    steps: 10\n"
+            "    overrides: {agent: {camera: {rays: 32}}}\n",
+            "tasks[1]",
+            "one policy lives the whole life",
+        ),
+        (
+            "tasks:\n  - {name: a, scenario: fruit_poisons, steps: 10}\n",
+            "tasks[0].scenario",
+            "did you mean",
+        ),
+        ("tasks:\n  - {name: a, scenario: fruits_poisons, steps: 0}\n", "tasks[0].steps", ""),
+        (
+            "tasks:\n  - {name: a, scenario: fruits_poisons_multi, steps: 5, focal: [agent_0]}\n",
+            "tasks[0]",
+            "go together",
+        ),
+        (
+            "tasks:\n  - {name: a, scenario: fruits_poisons, steps: 5}\n"
+            "  - {name: a, scenario: fruits_poisons, steps: 5}\n",
+            "tasks[1].name",
+            "names tasks[0]",
+        ),
+    ],
+)
+def test_faults_in_stream_files_are_located(tmp_path, body, where, words):
+    path = tmp_path / "bad.yaml"
+    path.write_text(body)
+    with pytest.raises(ScenarioError) as caught:
+        load_stream(path)
+    problem = caught.value.problems[0]
+    assert problem.source == str(path) and problem.line is not None
+    assert str(problem).startswith(f"{path}:{problem.line}: {where}")
+    assert words in str(problem)
