@@ -612,3 +612,49 @@ def test_step_counts_in_the_table_keep_three_significant_figures():
     # A multi-agent run that stops a little short of 1M is not rounded up to it.
     assert thousands(999_424) == "999k"
     assert [thousands(n) for n in (1_000_000, 2_500_000)] == ["1M", "2.5M"]
+
+
+def test_lifelong_learners_write_what_the_report_reads(tmp_path):
+    """Fine-tuning, cloning from replay and the reference learner on a tiny stream of
+    three short tasks; the report then reads the folder."""
+    stream = tmp_path / "tiny.yaml"
+    short = "overrides: {episode: {max_steps: 40}}"
+    stream.write_text(
+        "eval: {every: 256, episodes: 1}\ntasks:\n"
+        f"  - {{name: a, scenario: fruits_poisons, steps: 256, {short}}}\n"
+        f"  - {{name: b, scenario: fruits_poisons, steps: 256, {short}}}\n"
+        f"  - {{name: c, scenario: fruits_poisons, steps: 256, {short}}}\n"
+    )
+    out = tmp_path / "run"
+    for method in ("finetune", "replay", "reference"):
+        run_module(
+            "baselines.lifelong",
+            *("--stream", str(stream), "--method", method, "--out", str(out)),
+            *("--num-envs", "2", "--num-steps", "64", "--replay-size", "100"),
+        )
+    data = json.loads((out / "stream.json").read_text())
+    assert data["tasks"] == ["a", "b", "c"] and data["segments"] == [
+        [0, 0, 256],
+        [1, 256, 512],
+        [2, 512, 768],
+    ]
+    with open(out / "replay" / "seed_0" / "evaluations.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    steps = sorted({int(r["step"]) for r in rows})
+    # A block after the first rollout that passes each multiple of 256 agent-steps (a
+    # rollout: at most 2 worlds x 64 steps), and one at the end of the life.
+    assert len(steps) == 4 and steps[0] == 0 and len(rows) == 4 * 3
+    assert all(256 * k <= s < 256 * k + 128 for k, s in enumerate(steps[1:], start=1))
+    with open(out / "reference" / "seed_0" / "evaluations.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["task"] for r in rows] == ["0", "0", "1", "1", "2", "2"]
+    assert all(256 <= int(r["step"]) < 256 + 128 for r in rows[1::2])
+    result = subprocess.run(
+        [sys.executable, "-m", "flatland_ma.cli", "lifelong", "report", str(out), "--no-plot"],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0 and "finetune (1)" in result.stdout, result.stderr

@@ -32,7 +32,12 @@ FORBIDDEN = {
     "agents": ["scenario", "build", "tasks", "envs", "render", "policies"],
     "tasks": ["scenario", "sensors", "build", "envs", "render", "policies"],
     "build": ["envs", "render", "policies"],
+    "envs": ["policies", "evaluation", "lifelong"],
+    "policies": ["evaluation", "lifelong"],
+    "evaluation": ["lifelong"],
 }
+for _layer in ("scenario", "world", "sensors", "agents", "tasks", "build"):
+    FORBIDDEN[_layer] += ["evaluation", "lifelong"]
 """What each layer may not import: only the layers below it (the file format is at the
 bottom and apart: only build/ and what is above it read specs)."""
 
