@@ -252,3 +252,24 @@ def test_faults_in_stream_files_are_located(tmp_path, body, where, words):
     assert problem.source == str(path) and problem.line is not None
     assert str(problem).startswith(f"{path}:{problem.line}: {where}")
     assert words in str(problem)
+
+
+def test_a_copy_of_a_life_with_partners_goes_on_as_the_original():
+    env = StreamParallelEnv("partner_shift")
+    env.reset(seed=0)
+    env.step({"agent_0": 0})
+    copy = pickle.loads(pickle.dumps(env))
+    for action in (1, 0, 2):
+        mine, theirs = env.step({"agent_0": action}), copy.step({"agent_0": action})
+        assert np.array_equal(mine[0]["agent_0"], theirs[0]["agent_0"])
+        assert mine[1] == theirs[1]
+
+
+def test_the_batched_never_ending_world_never_ends():
+    env = StreamBatchedEnv("never_ending", num_worlds=2)
+    env.reset(seed=0)
+    start = item_rule(env.env.worlds[0]).values.copy()
+    for _ in range(600):
+        _, _, terminations, truncations, infos = env.step(np.zeros(2, np.int64))
+        assert not (terminations.any() or truncations.any()) and infos["active"].all()
+    assert not np.array_equal(item_rule(env.env.worlds[0]).values, start)
