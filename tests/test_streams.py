@@ -273,3 +273,15 @@ def test_the_batched_never_ending_world_never_ends():
         _, _, terminations, truncations, infos = env.step(np.zeros(2, np.int64))
         assert not (terminations.any() or truncations.any()) and infos["active"].all()
     assert not np.array_equal(item_rule(env.env.worlds[0]).values, start)
+
+
+def test_the_batched_env_announces_the_task_when_the_stream_says_so(tmp_path):
+    env = StreamBatchedEnv(two_tasks(tmp_path, first=4, announce=True), num_worlds=2)
+    observations, _ = env.reset(seed=0)
+    assert env.single_observation_space.contains({k: v[0] for k, v in observations.items()})
+    assert observations["task"].tolist() == [[1.0, 0.0]] * 2
+    for _ in range(2):
+        env.step(np.array([0, 0]))
+    observations, *_ = env.step(np.array([0, 0]))  # the step that starts the next task
+    assert observations["task"].tolist() == [[0.0, 1.0]] * 2
+    assert observations["observation"].shape == (2, 64, 4)
