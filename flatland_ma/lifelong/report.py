@@ -263,8 +263,9 @@ def plot(run: Run, summary: dict, path: Path) -> Path:
                 fontsize=7,
             )
         ax.set_yticks(np.arange(len(run.tasks)) + 0.5, run.tasks, fontsize=8)
-        ax.set_title(f"{name} ({len(learner.seeds)} seeds)", fontsize=9, pad=14)
+        ax.set_title(f"{name} ({len(learner.seeds)} seeds)", fontsize=9, pad=16)
     axes[-1, 0].set_xlabel("agent-steps of the life")
+    fig.subplots_adjust(hspace=0.55)
     if image is not None:
         fig.colorbar(image, ax=axes[:, 0].tolist(), label="normalised performance")
     path.parent.mkdir(parents=True, exist_ok=True)
