@@ -37,7 +37,7 @@ def register_gym_ids() -> list[str]:
             gymnasium.register(
                 id=env_id,
                 entry_point="flatland_ma.envs.gym:FlatlandGymEnv",
-                vector_entry_point="flatland_ma.envs.vector:make_vector",
+                vector_entry_point="flatland_ma.envs.gym_vector:make_vector",
                 max_episode_steps=max_steps,
                 kwargs={"scenario": name, "time_limit": False},
             )

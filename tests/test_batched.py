@@ -9,7 +9,8 @@ import pytest
 from gymnasium.utils.env_checker import data_equivalence
 
 import flatland_ma
-from flatland_ma.envs.vector import BatchedParallelEnv, FlatlandVectorEnv
+from flatland_ma.envs.gym_vector import FlatlandVectorEnv
+from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.registration import gym_id
 
 GOALS = {

@@ -66,6 +66,55 @@ def test_layers_import_only_downward(layer):
     assert wrong == []
 
 
+def runtime_imports(path: Path) -> set[str]:
+    """The modules (and names, as ``module.name``) a file imports when it runs, anywhere
+    in it, leaving out imports made for the type checker alone."""
+    tree = ast.parse(path.read_text())
+    typing_only = {
+        id(inner)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+        for statement in node.body
+        for inner in ast.walk(statement)
+    }
+    found = set()
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            found |= {node.module} | {f"{node.module}.{alias.name}" for alias in node.names}
+        elif isinstance(node, ast.Import):
+            found |= {alias.name for alias in node.names}
+    return found
+
+
+def test_no_two_modules_import_each_other_even_lazily():
+    """A loop of imports, even through an import inside a function, means two files that
+    are one; the package's root (which every import passes through) is left out."""
+    modules = {}
+    for path in PACKAGE.rglob("*.py"):
+        parts = path.relative_to(PACKAGE.parent).with_suffix("").parts
+        modules[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph = {
+        module: {
+            m for m in runtime_imports(path) if m in modules and m not in (module, "flatland_ma")
+        }
+        for module, path in modules.items()
+    }
+    loops = []
+    for start in graph:  # a loop through ``start``: a path from one of its imports back to it
+        seen, frontier = set(), [(m, [start, m]) for m in graph[start]]
+        while frontier:
+            module, path = frontier.pop()
+            if module == start:
+                loops.append(" -> ".join(path))
+                break
+            if module not in seen:
+                seen.add(module)
+                frontier += [(m, [*path, m]) for m in graph[module]]
+    assert loops == []
+
+
 def test_loading_every_scenario_builds_no_space(monkeypatch):
     made = []
     original = pymunk.Space.__init__

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import data_equivalence
 
+from flatland_ma.envs.gym_vector import FlatlandVectorEnv
 from flatland_ma.envs.shards import ShardedParallelEnv
-from flatland_ma.envs.vector import BatchedParallelEnv, FlatlandVectorEnv
+from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.registration import gym_id
 
 GOALS = {

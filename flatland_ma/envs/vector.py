@@ -6,12 +6,7 @@ share one policy's parameters among agents: world ``w``'s agent ``j`` is slot
 ``Dict`` observation as a dict of stacked arrays), and rewards, terminations and
 truncations as arrays of one entry per slot.
 
-``FlatlandVectorEnv`` is the Gymnasium ``VectorEnv`` of a single-agent scenario, one slot
-per world; ``gymnasium.make_vec("flatland_ma/FruitsPoisons-v0", num_envs=N)`` builds it
-(the ids name ``make_vector`` as their ``vector_entry_point``). It returns exactly what
-Gymnasium's ``SyncVectorEnv`` over the same envs returns, for the same seeds and actions.
-
-Both reset worlds in Gymnasium's ``NEXT_STEP`` mode: the step after the one in which a
+Worlds reset in Gymnasium's ``NEXT_STEP`` mode: the step after the one in which a
 world's last agent finished resets that world (its actions are not used) and returns the
 first observation of its new episode, with reward 0 and neither termination nor
 truncation. A world reset this way continues its own generator, so world ``w`` of a
@@ -243,76 +238,6 @@ class BatchedParallelEnv:
 
     def _out(self, buffer):
         return _copied(buffer) if self.copy else buffer
-
-
-class FlatlandVectorEnv(gymnasium.vector.VectorEnv):
-    """The Gymnasium vector env of a single-agent scenario: ``num_envs`` worlds, one slot
-    each (see the module's docstring); with ``shards`` they are spread over that many
-    processes (``flatland_ma.envs.shards``). ``infos`` follow Gymnasium's convention for vector
-    envs: per key an array over the envs, and under ``"_" + key`` which envs have it."""
-
-    metadata = {"autoreset_mode": AUTORESET_MODE, "render_modes": []}
-
-    def __init__(
-        self,
-        scenario: Any = "fruits_poisons",
-        num_envs: int = 1,
-        shards: int | None = None,
-        **kwargs,
-    ):
-        self.batch: Any
-        if shards is None:
-            self.batch = BatchedParallelEnv(scenario, num_worlds=num_envs, **kwargs)
-        else:  # the worlds spread over processes (imported here: it builds on this module)
-            from flatland_ma.envs.shards import ShardedParallelEnv
-
-            self.batch = ShardedParallelEnv(scenario, num_envs, shards=shards, **kwargs)
-        if self.batch.agents_per_world != 1:
-            raise ValueError(
-                f"scenario {scenario!r} has {self.batch.agents_per_world} agents; "
-                "use flatland_ma.envs.vector.BatchedParallelEnv for several agents"
-            )
-        self.num_envs = num_envs
-        self.single_observation_space = self.batch.single_observation_space
-        self.single_action_space = self.batch.single_action_space
-        self.observation_space = self.batch.observation_space
-        self.action_space = self.batch.action_space
-        self.render_mode = None
-
-    def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
-        observations, infos = self.batch.reset(seed=seed, options=options)
-        return observations, self._infos(infos)
-
-    def step(self, actions):
-        observations, rewards, terminations, truncations, infos = self.batch.step(actions)
-        return observations, rewards, terminations, truncations, self._infos(infos)
-
-    def close_extras(self, **kwargs) -> None:
-        self.batch.close()
-
-    def _infos(self, infos: dict) -> dict:
-        infos.pop("active")  # one agent per world: always acting
-        out: dict = {}
-        for key, values in infos.items():
-            out[key] = values
-            out[f"_{key}"] = np.ones(self.num_envs, bool)
-        return out
-
-
-def make_vector(
-    num_envs: int = 1,
-    scenario: str = "fruits_poisons",
-    time_limit: bool = False,
-    max_episode_steps: int | None = None,
-    **kwargs,
-) -> FlatlandVectorEnv:
-    """The ``vector_entry_point`` of the Gymnasium ids: ``max_episode_steps`` (the id's
-    unless ``gymnasium.make_vec`` is given one) is where every world truncates, as
-    ``gymnasium.make``'s ``TimeLimit`` does for one env."""
-    del time_limit  # the single env's switch; here the episode length is max_episode_steps
-    if max_episode_steps is not None and max_episode_steps > 0:
-        kwargs["max_cycles"] = max_episode_steps
-    return FlatlandVectorEnv(scenario, num_envs=num_envs, **kwargs)
 
 
 def _counter_array(value, n: int) -> np.ndarray:
