@@ -17,7 +17,7 @@ import importlib
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
-from flatland_ma.registration import register_gym_ids
+from flatland_ma.registration import register_gym_ids, register_stream_ids
 from flatland_ma.scenario.loader import list_scenarios, load_scenario
 
 if TYPE_CHECKING:
@@ -35,6 +35,8 @@ except PackageNotFoundError:  # a source tree on sys.path, never installed
 
 GYM_IDS = register_gym_ids()
 """The Gymnasium ids registered on import, one per single-agent scenario."""
+STREAM_GYM_IDS = register_stream_ids()
+"""The Gymnasium ids of the shipped task streams, one life each (``flatland_ma.lifelong``)."""
 
 _LAZY = {
     "FlatlandParallelEnv": ("flatland_ma.envs.parallel", "FlatlandParallelEnv"),
@@ -59,6 +61,7 @@ def __getattr__(name: str):
 
 __all__ = [
     "GYM_IDS",
+    "STREAM_GYM_IDS",
     "BatchedParallelEnv",
     "ShardedParallelEnv",
     "FlatlandParallelEnv",

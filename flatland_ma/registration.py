@@ -3,13 +3,18 @@
 Each id is registered with its scenario's ``episode.max_steps`` as ``max_episode_steps``,
 so ``gymnasium.make``'s ``TimeLimit`` truncates there unless ``max_episode_steps=N`` says
 otherwise; the env is built with ``time_limit=False`` so that it does not truncate too.
+
+Each shipped task stream has an id too (``cross_objective`` ->
+``flatland_ma/CrossObjectiveStream-v0``): one life through it for a learner that drives
+one agent (``flatland_ma.lifelong.StreamGymEnv``), with no time limit of Gymnasium's: the
+stream's worlds truncate their own episodes and the stream switches task.
 """
 
 from __future__ import annotations
 
 import gymnasium
 
-from flatland_ma.scenario.loader import list_scenarios, load_scenario
+from flatland_ma.scenario.loader import list_scenarios, list_streams, load_scenario
 
 NAMESPACE = "flatland_ma"
 
@@ -17,6 +22,11 @@ NAMESPACE = "flatland_ma"
 def gym_id(scenario: str) -> str:
     """``fruits_poisons`` -> ``flatland_ma/FruitsPoisons-v0``."""
     return f"{NAMESPACE}/{''.join(part.capitalize() for part in scenario.split('_'))}-v0"
+
+
+def stream_gym_id(stream: str) -> str:
+    """``cross_objective`` -> ``flatland_ma/CrossObjectiveStream-v0``."""
+    return gym_id(stream).replace("-v0", "Stream-v0")
 
 
 def single_agent_scenarios() -> dict[str, int]:
@@ -40,6 +50,20 @@ def register_gym_ids() -> list[str]:
                 vector_entry_point="flatland_ma.envs.gym_vector:make_vector",
                 max_episode_steps=max_steps,
                 kwargs={"scenario": name, "time_limit": False},
+            )
+        ids.append(env_id)
+    return ids
+
+
+def register_stream_ids() -> list[str]:
+    ids = []
+    for name in list_streams():
+        env_id = stream_gym_id(name)
+        if env_id not in gymnasium.registry:
+            gymnasium.register(
+                id=env_id,
+                entry_point="flatland_ma.lifelong.envs:StreamGymEnv",
+                kwargs={"stream": name},
             )
         ids.append(env_id)
     return ids

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
-from pettingzoo.test import api_test, parallel_api_test
+from pettingzoo.test import api_test, parallel_api_test, state_test
 
 from flatland_ma.lifelong import (
     StreamBatchedEnv,
@@ -138,6 +138,58 @@ def test_the_ecosystem_checkers_pass_on_stream_envs(tmp_path):
         api_test(stream_aec_env(path), num_cycles=80)
         check_env(StreamGymEnv(path), skip_render_check=True)
         parallel_api_test(StreamParallelEnv("partner_shift"), num_cycles=20)
+        state_test(stream_aec_env("partner_shift"), StreamParallelEnv("partner_shift"), 20)
+        state_test(stream_aec_env(path), StreamParallelEnv(path), num_cycles=80)
+
+
+def test_every_shipped_stream_has_a_gymnasium_id_that_lives_its_life():
+    import gymnasium
+
+    import flatland_ma
+    from flatland_ma.registration import stream_gym_id
+
+    assert flatland_ma.STREAM_GYM_IDS == [stream_gym_id(name) for name in list_streams()]
+    assert "flatland_ma/CrossObjectiveStream-v0" in flatland_ma.STREAM_GYM_IDS
+    for env_id in flatland_ma.STREAM_GYM_IDS:
+        env = gymnasium.make(env_id)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            check_env(env.unwrapped, skip_render_check=True)
+        made = env.unwrapped
+        assert isinstance(made, StreamGymEnv)
+        assert stream_gym_id(made.parallel_env.stream.name) == env_id
+        env.reset(seed=3)
+        _, _, _, _, info = env.step(env.action_space.sample())
+        assert info["task"] == 0
+        env.close()
+
+
+def test_the_state_is_the_task_worlds_padded_to_the_longest(tmp_path):
+    path = tmp_path / "grow.yaml"
+    path.write_text(
+        "tasks:\n"
+        "  - {name: few, scenario: fruits_poisons, steps: 4}\n"
+        "  - name: many\n    scenario: fruits_poisons\n    steps: 4\n"
+        "    overrides: {items: [{name: fruits, color: orange, reward: 10, count: 30}]}\n"
+    )
+    env = StreamParallelEnv(path)
+    sizes = [env._env(task).state_space.shape[0] for task in range(2)]
+    assert sizes[1] > sizes[0]  # 30 fruits and no poison against 10 and 10
+    assert env.state_space.shape == (sizes[1],)
+    env.reset(seed=0)
+    for task in (0, 0, 0, 0, 1):
+        if not env.agents:
+            env.reset()
+        assert env.task == task
+        state = env.state()
+        own = env.env.state()
+        assert env.state_space.contains(state)
+        np.testing.assert_array_equal(state[: own.shape[0]], own)
+        assert not state[own.shape[0] :].any()
+        labels = env.state_labels
+        assert len(labels) == len(state) and labels[: own.shape[0]] == env.env.state_labels
+        assert set(labels[own.shape[0] :]) <= {""}
+        env.step({agent: env.action_space(agent).sample() for agent in env.agents})
 
 
 def test_same_seed_and_actions_live_the_same_life_across_a_switch(tmp_path):

@@ -21,6 +21,11 @@ seeds drawn from the life's generator).
 
 In the never-ending mode the only world never truncates and drifts after every step
 (``flatland_ma.lifelong.drift``).
+
+``state()`` is the world's global state (``FlatlandParallelEnv.state``: every agent's,
+background ones too), for centralised critics; its space is the longest of the tasks'
+state spaces, and a shorter task's state is padded with zeros (``state_labels`` names the
+entries of the task on, ``""`` for padding).
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
+from flatland_ma.build.census import world_state
 from flatland_ma.envs.parallel import RENDER_MODES, FlatlandParallelEnv
 from flatland_ma.lifelong.drift import Drift
 from flatland_ma.lifelong.streams import Stream, load_stream
@@ -70,6 +76,18 @@ def background_policies(stream: Stream, task: int, env, rng: np.random.Generator
     }
 
 
+def state_space(stream: Stream) -> spaces.Box:
+    """The longest of the tasks' global state spaces, padded entries bounded to 0."""
+    boxes = [world_state(spec).space for spec in stream.scenarios]
+    n = max(box.shape[0] for box in boxes)
+    low, high = np.zeros(n, np.float32), np.zeros(n, np.float32)
+    for box in boxes:
+        k = box.shape[0]
+        low[:k] = np.minimum(low[:k], box.low)
+        high[:k] = np.maximum(high[:k], box.high)
+    return spaces.Box(low, high, dtype=np.float32)
+
+
 def task_env(stream: Stream, task: int, render_mode: str | None = None) -> FlatlandParallelEnv:
     """A world of the stream's task ``task`` (all its agents; no switching)."""
     env = FlatlandParallelEnv(stream.scenarios[task], render_mode=render_mode)
@@ -104,6 +122,8 @@ class StreamParallelEnv(ParallelEnv):
                 announced(space, self.tasks) if self.stream.spec.announce else space
             )
         self.action_spaces = {a: first.action_space(a) for a in self.possible_agents}
+        self.state_space = state_space(self.stream)
+        """Room for every task's global state: see ``state()``."""
         ne = self.stream.spec.never_ending
         self._drift = Drift(ne.drift) if ne is not None else None
         self.clock = 0
@@ -219,6 +239,19 @@ class StreamParallelEnv(ParallelEnv):
         if self.stream.spec.announce:
             return announce(observation, self.task, self.tasks)
         return observation
+
+    def state(self) -> np.ndarray:
+        """The global state of the task's world, padded with zeros to ``state_space``."""
+        own = self.env.state()
+        padded = np.zeros(self.state_space.shape, np.float32)
+        padded[: own.shape[0]] = own
+        return padded
+
+    @property
+    def state_labels(self) -> tuple[str, ...]:
+        """The name of each entry of ``state()`` in the task on (``""``: padding)."""
+        own = self.env.state_labels
+        return own + ("",) * (self.state_space.shape[0] - len(own))
 
     def render(self):
         return self.env.render()

@@ -30,20 +30,18 @@ are; a task's scenario with its overrides is loaded and checked when the stream 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any
 
 from pydantic import Field, ValidationError, model_validator
 
 from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError, locate
-from flatland_ma.scenario.loader import file_text
+from flatland_ma.scenario.loader import file_text, list_streams, stream_dir
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.scenario.types import Spec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
-STREAMS = "flatland_ma.scenarios"
 """The package whose ``streams`` folder holds the shipped streams."""
 Label = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
 ScenarioName = Annotated[str, Field(strict=True, min_length=1, max_length=500)]
@@ -199,15 +197,6 @@ class Stream:
         """Agent-steps in the whole life; None: never-ending."""
         segments = self.segments()
         return segments[-1][2] if segments else None
-
-
-def stream_dir() -> Path:
-    return Path(str(resources.files(STREAMS))) / "streams"
-
-
-def list_streams() -> list[str]:
-    """Names of the shipped streams, sorted."""
-    return sorted(p.stem for p in stream_dir().glob("*.yaml"))
 
 
 def load_stream(name: str | Path) -> Stream:

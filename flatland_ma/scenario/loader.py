@@ -54,6 +54,16 @@ def list_scenarios() -> list[str]:
     return sorted(p.stem for p in scenario_dir().iterdir() if p.suffix in SCENARIO_SUFFIXES)
 
 
+def stream_dir() -> Path:
+    """The folder of the shipped task streams (``flatland_ma.lifelong`` reads them)."""
+    return scenario_dir() / "streams"
+
+
+def list_streams() -> list[str]:
+    """Names of the shipped streams, sorted."""
+    return sorted(p.stem for p in stream_dir().glob("*.yaml"))
+
+
 def scenario_path(name: str | Path) -> Path:
     """The file of a shipped scenario, or ``name`` itself if it is a path to a file."""
     path = Path(name)
