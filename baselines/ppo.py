@@ -5,7 +5,10 @@ processes): every agent of every world is one slot, one forward pass acts for al
 and every agent's experience trains the one policy. The network (``baselines.networks``) sees
 what the agent observes, its own first-person image or map, and in a scenario with a
 channel what it hears; it acts in ``Discrete`` moves, or ``MultiDiscrete`` moves and words
-(one head per component). The update is CleanRL's PPO (clipped objective, GAE, value clipping,
+(one head per component). Agents whose observations differ (roles with other sensors, as in
+``plate_relay`` or ``signal_rooms``) share it through one padded observation that names
+each slot's role (``pad=True``, ``flatland_ma.envs.padding``); their actions must agree.
+The update is CleanRL's PPO (clipped objective, GAE, value clipping,
 advantage normalisation, annealed learning rate), with its default settings unless stated.
 
 Slots whose action the env does not use on a step are left out of the update: an agent
@@ -47,7 +50,8 @@ from flatland_ma.policies.checkpoint import write_checkpoint
 @dataclass
 class Args:
     scenario: str = "fruits_poisons_multi"
-    """Scenario to train on; any number of agents, all with the same spaces."""
+    """Scenario to train on; any number of agents, all acting alike (observations that
+    differ are padded to one, with each agent's role)."""
     no_channel: bool = False
     """Play the scenario without its channel (``channel: null``): nobody speaks or hears.
     The default log is then runs/ppo/<scenario>-no-channel/."""
@@ -266,7 +270,11 @@ class Rollout:
 
 
 def batched_env(args: Args) -> BatchedParallelEnv | ShardedParallelEnv:
-    overrides = {"channel": None} if args.no_channel else {}
+    # Agents whose observations differ (roles with other sensors) share the network
+    # through one padded space that names each slot's role (flatland_ma.envs.padding).
+    overrides: dict = {"pad": True}
+    if args.no_channel:
+        overrides["channel"] = None
     if args.shards > 1:
         return ShardedParallelEnv(
             args.scenario, args.num_envs, shards=args.shards, copy=False, **overrides
@@ -319,6 +327,7 @@ def main(args: Args) -> dict:
                 "algorithm": "ppo",
                 "trained_with": ["self"],  # self-play: every slot is this policy
                 "overrides": {"channel": None} if args.no_channel else {},
+                "padded": env.padding is not None,
                 "args": asdict(args),
                 "update": update,
                 "agent_steps": global_step,

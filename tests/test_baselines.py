@@ -390,6 +390,41 @@ def test_ppo_hears_and_speaks_where_the_scenario_has_a_channel(tmp_path, channel
             make_policy(str(tmp_path / "seed_0.pt"), silent, "agent_1")
 
 
+@pytest.mark.parametrize("scenario", ["plate_relay", "signal_rooms"])
+def test_ppo_shares_one_network_between_roles_that_observe_differently(tmp_path, scenario):
+    """The scout's 64 rays and the runner's 32 (plate_relay), the guide's map and the
+    seeker's camera (signal_rooms): one padded observation naming the role; the
+    checkpoint plays either role, padding its observation as in training."""
+    import flatland_ma
+    from flatland_ma.envs.padding import Padding
+    from flatland_ma.policies.checkpoint import read_checkpoint
+    from flatland_ma.policies.named import make_policy
+
+    run_module(
+        "baselines.ppo",
+        *("--scenario", scenario, "--num-envs", "1", "--num-steps", "32"),
+        *("--total-timesteps", "64", "--checkpoint-every", "0", "--no-tensorboard"),
+        *("--csv", str(tmp_path / "seed_0.csv")),
+    )
+    path = str(tmp_path / "seed_0.pt")
+    env = flatland_ma.parallel_env(scenario)
+    padding = Padding.of(env)
+    assert padding is not None
+    saved = read_checkpoint(path)
+    assert saved["padded"] and saved["observation_space"] == str(padding.space)
+    observations, _ = env.reset(seed=0)
+    for index, agent in enumerate(env.possible_agents):
+        policy = make_policy(path, env, agent, seed=0)
+        action = policy.act(observations[agent])
+        assert env.action_space(agent).contains(action)
+        greedy = make_policy(path, env, agent)
+        greedy.greedy = True
+        padded = {k: v[None] for k, v in padding.pad(index, observations[agent]).items()}
+        np.testing.assert_array_equal(greedy.act(observations[agent]), greedy.act_batch(padded)[0])
+    with pytest.raises(ValueError, match="space"):
+        make_policy(path, flatland_ma.parallel_env("fruits_poisons_multi"), "agent_0")
+
+
 def test_ppo_advantages_match_a_hand_computation():
     """Two slots, three steps: slot 0 is truncated at step 1 (its next observation is the
     episode's last, whose value bootstraps), slot 1 terminates at step 0."""

@@ -5,6 +5,7 @@ agents alike (the batched env refuses them; SuperSuit pads them)."""
 import math
 import pickle
 
+import gymnasium
 import numpy as np
 import pytest
 import supersuit
@@ -12,6 +13,8 @@ from gymnasium.utils.env_checker import data_equivalence
 from pettingzoo.test import parallel_api_test
 
 import flatland_ma
+from flatland_ma.envs.padding import ROLE, Padding
+from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.policies import GreedyForager
 from flatland_ma.scenario.errors import ScenarioError
@@ -149,6 +152,91 @@ def test_the_batched_env_refuses_agents_of_different_spaces_and_names_them():
     batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=2, **alike)
     observations, _ = batch.reset(seed=0)
     assert observations.shape == (8, 64, 4)
+
+
+def test_padding_puts_each_role_in_the_corner_of_one_space_with_its_role_named():
+    env = flatland_ma.parallel_env("signal_rooms")
+    padding = Padding.of(env)
+    assert padding is not None and padding.roles == 2 and padding.role_of == [0, 1]
+    space = padding.space.spaces
+    assert set(space) == {"camera", "messages", "topdown", ROLE}
+    assert space["topdown"].shape == (64, 64, 3) and space["camera"].shape == (64, 4)
+    observations, _ = env.reset(seed=4)
+    guide, seeker = padding.pad(0, observations["agent_0"]), padding.pad(1, observations["agent_1"])
+    assert padding.space.contains(guide) and padding.space.contains(seeker)
+    np.testing.assert_array_equal(guide["topdown"], observations["agent_0"]["topdown"])
+    assert not guide["camera"].any() and not seeker["topdown"].any()
+    np.testing.assert_array_equal(guide[ROLE], [1, 0])
+    np.testing.assert_array_equal(seeker[ROLE], [0, 1])
+    # Boxes of one rank pad along each axis: the runner's 32 rays, then zeros.
+    relay = flatland_ma.parallel_env("plate_relay")
+    padding = Padding.of(relay)
+    assert padding is not None and padding.space["observation"].shape == (64, 4)
+    observations, _ = relay.reset(seed=0)
+    runner = padding.pad(1, observations["agent_1"])["observation"]
+    np.testing.assert_array_equal(runner[:32], observations["agent_1"])
+    assert not runner[32:].any()
+    assert Padding.of(flatland_ma.parallel_env("fruits_poisons_multi")) is None
+    with pytest.raises(ValueError, match="ranks"):
+        Padding([gymnasium.spaces.Box(0, 1, (4,)), gymnasium.spaces.Box(0, 1, (2, 2))])
+
+
+@pytest.mark.parametrize("scenario", ["plate_relay", "signal_rooms"])
+def test_a_padded_batch_gives_what_separate_envs_give_padded(scenario):
+    n, steps, seed = 2, 40, 5
+    batch = BatchedParallelEnv(scenario, num_worlds=n, max_cycles=15, pad=True)
+    envs = [flatland_ma.parallel_env(scenario, max_cycles=15) for _ in range(n)]
+    padding = batch.padding
+    assert padding is not None and batch.single_observation_space == padding.space
+    agents = envs[0].possible_agents
+    inert = {k: np.zeros(b.shape, b.dtype) for k, b in padding.space.spaces.items()}
+
+    def padded(rows):
+        return {k: np.stack([row[k] for row in rows]) for k in padding.space.spaces}
+
+    got, _ = batch.reset(seed=seed)
+    firsts = [env.reset(seed=seed + w)[0] for w, env in enumerate(envs)]
+    want = padded([padding.pad(j, firsts[w][a]) for w in range(n) for j, a in enumerate(agents)])
+    assert data_equivalence(got, want, exact=True)
+    batch.action_space.seed(3)
+    ended, resets = [False] * n, 0
+    for _ in range(steps):
+        actions = batch.action_space.sample()
+        got, rewards, *_ = batch.step(actions)
+        rows, expected_rewards = [], []
+        for w, env in enumerate(envs):
+            if ended[w]:
+                observations, _ = env.reset()
+                rows += [padding.pad(j, observations[a]) for j, a in enumerate(agents)]
+                expected_rewards += [0.0] * len(agents)
+                ended[w], resets = False, resets + 1
+                continue
+            live = list(env.agents)
+            step = env.step({a: actions[w * len(agents) + agents.index(a)] for a in live})
+            for j, a in enumerate(agents):
+                rows.append(padding.pad(j, step[0][a]) if a in live else inert)
+                expected_rewards.append(step[1][a] if a in live else 0.0)
+            ended[w] = not env.agents
+        assert data_equivalence(got, padded(rows), exact=True)
+        np.testing.assert_array_equal(rewards, expected_rewards)
+        assert batch.observation_space.contains(got)
+    assert resets >= n  # every world went through a reset
+    sharded = ShardedParallelEnv(scenario, n, shards=2, max_cycles=15, pad=True)
+    try:
+        assert data_equivalence(sharded.reset(seed=seed)[0], batch.reset(seed=seed)[0], exact=True)
+    finally:
+        sharded.close()
+
+
+def test_padding_pads_observations_but_not_actions():
+    mixed = {
+        "teams": [
+            {"name": "a", "size": 1},
+            {"name": "b", "size": 1, "agent": {"actions": "continuous"}},
+        ]
+    }
+    with pytest.raises(ValueError, match="actions must agree"):
+        BatchedParallelEnv("fruits_poisons_multi", num_worlds=1, pad=True, n_agents=2, **mixed)
 
 
 def test_supersuit_pads_them_to_one_space_for_parameter_sharing():

@@ -88,6 +88,8 @@ class ShardedParallelEnv:
         self.num_slots = num_worlds * self.agents_per_world
         self.single_observation_space = probe.single_observation_space
         self.single_action_space = probe.single_action_space
+        self.padding = probe.padding
+        """How observations are padded to one space (``pad=True``), or None."""
         self.observation_space = gymnasium.vector.utils.batch_space(
             self.single_observation_space, self.num_slots
         )

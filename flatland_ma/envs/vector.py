@@ -33,6 +33,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
+from flatland_ma.envs.padding import Padding
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.sensors.suite import WorldsKernel
 
@@ -72,7 +73,10 @@ def _copied(buffer):
 class BatchedParallelEnv:
     """``num_worlds`` worlds of ``scenario`` (with ``overrides`` and ``max_cycles`` as
     for ``FlatlandParallelEnv``), every agent of every world one slot (see the module's
-    docstring). Every agent must have the same spaces (one shared policy)."""
+    docstring). Every agent must have the same spaces (one shared policy), unless ``pad``:
+    then agents that observe differently (but act alike) are given one padded observation
+    space with their role in it (``flatland_ma.envs.padding``); ``padding`` is None when
+    nothing needed padding."""
 
     metadata = {"autoreset_mode": AUTORESET_MODE}
 
@@ -83,6 +87,7 @@ class BatchedParallelEnv:
         max_cycles: int | None = None,
         copy: bool = True,
         parallel: bool = True,
+        pad: bool = False,
         **overrides,
     ):
         if isinstance(num_worlds, bool) or not isinstance(num_worlds, int) or num_worlds < 1:
@@ -97,18 +102,27 @@ class BatchedParallelEnv:
         self.num_slots = num_worlds * self.agents_per_world
         self.copy = copy
         agents = first.possible_agents
-        self.single_observation_space = first.observation_space(agents[0])
+        self.padding = Padding.of(first) if pad else None
+        """How observations are padded to one space, or None (see ``pad``)."""
+        self.single_observation_space = (
+            first.observation_space(agents[0]) if self.padding is None else self.padding.space
+        )
         self.single_action_space = first.action_space(agents[0])
         for agent in agents[1:]:
-            if str(first.observation_space(agent)) != str(self.single_observation_space) or (
-                first.action_space(agent) != self.single_action_space
+            observes = str(first.observation_space(agent)) == str(
+                first.observation_space(agents[0])
+            )
+            if (
+                not (observes or self.padding)
+                or first.action_space(agent) != self.single_action_space
             ):
                 raise ValueError(
                     f"{agent} observes {first.observation_space(agent)} and acts in "
                     f"{first.action_space(agent)}, {agents[0]} observes "
-                    f"{self.single_observation_space} and acts in {self.single_action_space}: "
-                    "a batch's slots share one space (one policy); pad them to one with "
-                    "SuperSuit (docs/integrations.md) or step these agents' worlds apart"
+                    f"{first.observation_space(agents[0])} and acts in "
+                    f"{self.single_action_space}: a batch's slots share one space (one "
+                    "policy); pad=True pads observations that differ (actions must agree), "
+                    "SuperSuit pads both (docs/integrations.md)"
                 )
         self.observation_space = batch_space(self.single_observation_space, self.num_slots)
         self.action_space = batch_space(self.single_action_space, self.num_slots)
@@ -168,7 +182,7 @@ class BatchedParallelEnv:
                 base = w * m
                 for i in live:
                     slot = base + i
-                    _put(self._observations, slot, sensors.observation(i))
+                    self._put(slot, i, sensors.observation(i))
                     self._rewards[slot] = rewards[i]
                     self._terminations[slot] = terminated[i]
                     self._truncations[slot] = truncated
@@ -197,10 +211,16 @@ class BatchedParallelEnv:
         self._rays.set(w, env.running.sensors)
         base = w * self.agents_per_world
         for j, agent in enumerate(env.possible_agents):
-            _put(self._observations, base + j, observations[agent])
+            self._put(base + j, j, observations[agent])
             self._active[base + j] = True
             self._count(base + j, infos[agent])
         self._ended[w] = False
+
+    def _put(self, slot: int, agent: int, observation) -> None:
+        if self.padding is None:
+            _put(self._observations, slot, observation)
+        else:
+            self.padding.put(self._observations, agent, observation, slot)
 
     def _check(self, actions) -> list[list]:
         """Each live agent's action, checked, world by world; nothing is changed."""

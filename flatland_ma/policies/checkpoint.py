@@ -122,6 +122,8 @@ class CheckpointPolicy:
         self.program = torch.export.load(io.BytesIO(self.data["program"])).module()
         self.greedy = greedy
         self.rng = np.random.default_rng(seed)
+        self._padding: tuple | None = None
+        """The padding of the agent played (see ``bind``), or None."""
 
     def check(self, observation_space, action_space) -> None:
         """Raise ``ValueError`` unless the agent's spaces are those the network learnt on."""
@@ -132,8 +134,26 @@ class CheckpointPolicy:
                     f"{self.path}: trained for the {what} space {saved}, the agent has {space}"
                 )
 
+    def bind(self, env, agent: str) -> None:
+        """Play ``agent`` of ``env``: check its spaces against the network's. A network
+        trained on padded observations (agents of several roles, ``pad=True``) reads this
+        agent's observation padded as in training, its role named."""
+        if not self.data.get("padded"):
+            self.check(env.observation_space(agent), env.action_space(agent))
+            return
+        from flatland_ma.envs.padding import Padding
+
+        padding = Padding.of(env)
+        space = env.observation_space(agent) if padding is None else padding.space
+        self.check(space, env.action_space(agent))
+        if padding is not None:
+            self._padding = (padding, env.possible_agents.index(agent))
+
     def act(self, observation):
         """One agent's action: an int, or an array for a ``MultiDiscrete`` space."""
+        if self._padding is not None:
+            padding, index = self._padding
+            observation = padding.pad(index, observation)
         if isinstance(observation, dict):
             batch = {key: np.asarray(value)[None] for key, value in observation.items()}
         else:

@@ -60,5 +60,5 @@ def make_policy(name: str, env: FlatlandParallelEnv, agent: str, seed: int | Non
             f"no policy {name!r}: one of {', '.join(SHIPPED)}, or a checkpoint file (.pt)"
         )
     policy = CheckpointPolicy(name, seed=seed)
-    policy.check(env.observation_space(agent), env.action_space(agent))
+    policy.bind(env, agent)
     return policy
