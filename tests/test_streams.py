@@ -10,7 +10,7 @@ import warnings
 
 import numpy as np
 import pytest
-from gymnasium.utils.env_checker import check_env
+from gymnasium.utils.env_checker import check_env, data_equivalence
 from pettingzoo.test import api_test, parallel_api_test, state_test
 
 from flatland_ma.lifelong import (
@@ -337,3 +337,84 @@ def test_the_batched_env_announces_the_task_when_the_stream_says_so(tmp_path):
     observations, *_ = env.step(np.array([0, 0]))  # the step that starts the next task
     assert observations["task"].tolist() == [[0.0, 1.0]] * 2
     assert observations["observation"].shape == (2, 64, 4)
+
+
+def with_random_partners(tmp_path):
+    path = tmp_path / "partners.yaml"
+    path.write_text(
+        "tasks:\n"
+        "  - {name: a, scenario: fruits_poisons_multi, focal: [agent_0], background: random,"
+        " steps: 9}\n"
+        "  - {name: b, scenario: fruits_poisons_multi, focal: [agent_0], background: idle,"
+        " steps: 9}\n"
+    )
+    return path
+
+
+def _life_after(env, step, bad_at, bad):
+    """Observations and rewards of a life of 14 steps of action 1, with ``bad`` tried (and
+    refused) before step ``bad_at``."""
+    out = [env.reset(seed=2)[0]]
+    for t in range(14):
+        if t == bad_at:
+            with pytest.raises(ValueError) as caught:
+                step(env, bad)
+            out.append(str(caught.value))
+        out.append(step(env, None))
+    return out
+
+
+def _same_lives(a, b):
+    assert len(a) == len(b)
+    for x, y in zip(a, b):
+        if isinstance(x, str) or isinstance(y, str):
+            continue
+        assert data_equivalence(x, y, exact=True)
+
+
+def _parallel_step(env, bad):
+    if not env.agents:
+        return env.reset()[0]
+    return env.step({"agent_0": 1 if bad is None else bad})[:2]
+
+
+def _gym_step(env, bad):
+    result = env.step(1 if bad is None else bad)
+    if result[2] or result[3]:
+        return env.reset()[0]
+    return result[:2]
+
+
+def _batched_step(env, bad):
+    actions = np.ones(env.num_slots, np.int64).astype(object)
+    if bad is not None:
+        actions[1] = bad
+    return env.step(actions)[:2]
+
+
+@pytest.mark.parametrize("bad", [3, -1, float("nan"), np.array([0, 1]), "forward"], ids=repr)
+@pytest.mark.parametrize("kind", ["parallel", "gym", "batched"])
+def test_a_bad_action_names_agent_value_and_space_and_changes_nothing(tmp_path, kind, bad):
+    """Nothing moves, the clock stands, and the random partners draw nothing: the life
+    goes on as if the bad action had never been offered (also across the switch)."""
+    path = with_random_partners(tmp_path)
+    make, step = {
+        "parallel": (lambda: StreamParallelEnv(path), _parallel_step),
+        "gym": (lambda: StreamGymEnv(path), _gym_step),
+        "batched": (lambda: StreamBatchedEnv(path, 2), _batched_step),
+    }[kind]
+    tried = _life_after(make(), step, 4, bad)
+    clean = _life_after(make(), step, -1, bad)
+    message = next(x for x in tried if isinstance(x, str))
+    assert repr(bad) in message and "Discrete(3)" in message
+    assert ("slot 1" if kind == "batched" else "agent_0") in message
+    _same_lives([x for x in tried if not isinstance(x, str)], clean)
+
+
+def test_actions_for_agents_the_learner_does_not_drive_are_refused(tmp_path):
+    env = StreamParallelEnv(with_random_partners(tmp_path))
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="agent_1.*not a live agent"):
+        env.step({"agent_0": 0, "agent_1": 0})
+    with pytest.raises(ValueError, match="no action given for live agent 'agent_0'"):
+        env.step({})

@@ -132,6 +132,7 @@ class StreamBatchedEnv:
             return observations, np.zeros(self.num_slots), zeros, zeros.copy(), infos
         env = self.env
         slots = self._slots()
+        self._check(env, actions, slots)
         full = self._full(env, actions, slots)
         acted = int(self._acting.sum())
         observations, rewards, terminations, truncations, infos = env.step(full)
@@ -156,27 +157,41 @@ class StreamBatchedEnv:
         out[4]["task_switch"] = switch
         return out
 
-    def _full(self, env: BatchedParallelEnv, actions: np.ndarray, slots: np.ndarray) -> np.ndarray:
-        """Every inner slot's action: the learner's at its slots, the background's elsewhere."""
+    def _check(self, env: BatchedParallelEnv, actions: np.ndarray, slots: np.ndarray) -> None:
+        """The learner's actions, checked before the partners act: an error names the
+        world, the learner's slot, the agent, the value and the space; nothing changes."""
+        m = env.agents_per_world
+        for k, slot in enumerate(slots):
+            w, j = divmod(int(slot), m)
+            world = env.worlds[w]
+            if env._ended[w] or j not in world._live:
+                continue  # its action is not used
+            try:
+                world.check_action(world.possible_agents[j], actions[k])
+            except ValueError as err:
+                raise ValueError(f"world {w}, slot {k}: {err}") from None
+
+    def _full(self, env: BatchedParallelEnv, actions: np.ndarray, slots: np.ndarray):
+        """Every inner slot's action: the learner's at its slots, the background's elsewhere
+        (None where the inner env does not use it)."""
         if len(slots) == env.num_slots and not any(self._backgrounds):
             return actions
-        full: list = [None] * env.num_slots
+        full = np.empty(env.num_slots, object)
         for k, slot in enumerate(slots):
             full[slot] = actions[k]
         m = env.agents_per_world
         observations = self._observations
         for w, policies in enumerate(self._backgrounds):
             for agent, policy in policies.items():
-                j = env.possible_agents.index(agent)
-                slot = w * m + j
+                slot = w * m + env.possible_agents.index(agent)
+                if not env._active[slot]:
+                    continue
                 if isinstance(observations, dict):
                     seen = {key: value[slot] for key, value in observations.items()}
                 else:
                     seen = observations[slot]
-                full[slot] = (
-                    policy.act(seen) if env._active[slot] else env.single_action_space.sample()
-                )
-        return np.array(full) if not isinstance(full[0], np.ndarray) else np.stack(full)
+                full[slot] = policy.act(seen)
+        return full
 
     def _out(self, observations, rewards, terminations, truncations, infos):
         slots = self._slots()
