@@ -191,6 +191,41 @@ class StreamParallelEnv(ParallelEnv):
         if not self.agents:
             raise RuntimeError("no live agents: the episode is over, call reset()")
         env = self.env
+        acting = self.agents
+        if self._backgrounds:  # the learner's actions are checked before the partners act
+            full = self._with_partners(env, actions)
+        else:  # the learner drives every agent: the world checks them before anything moves
+            full = actions
+        observations, rewards, terminations, truncations, infos = env.step(full)
+        if self._drift is not None:
+            self._drift.apply(env)
+        self._observations = observations
+        self.clock += len(acting)
+        task = self.task
+        obs = {a: self._seen(observations[a]) for a in acting}
+        rew, term, trunc = rewards, terminations, truncations  # the learner's alone, unless
+        if self._backgrounds:  # partners play too
+            rew = {a: rewards[a] for a in acting}
+            term = {a: terminations[a] for a in acting}
+            trunc = {a: truncations[a] for a in acting}
+        info = {a: {**infos[a], TASK: task} for a in acting}
+        if (
+            self.segments
+            and self.segment < len(self.segments)
+            and self.clock >= self.segments[self.segment][2]
+        ):
+            for agent in acting:
+                if not (term[agent] or trunc[agent]):
+                    trunc[agent] = True
+                info[agent]["task_switch"] = True
+            self._pending = True
+            self.agents = []
+        else:
+            self.agents = [a for a in acting if not (term[a] or trunc[a])]
+        return obs, rew, term, trunc, info
+
+    def _with_partners(self, env: FlatlandParallelEnv, actions: dict) -> dict:
+        """The learner's actions, checked, with the background partners' beside them."""
         for agent in actions:
             if agent not in self.agents:
                 raise ValueError(
@@ -208,32 +243,7 @@ class StreamParallelEnv(ParallelEnv):
         for agent, policy in self._backgrounds.items():
             if agent in env.agents:
                 full[agent] = policy.act(self._observations[agent])
-        acting = list(self.agents)
-        observations, rewards, terminations, truncations, infos = env.step(full)
-        if self._drift is not None:
-            self._drift.apply(env)
-        self._observations = observations
-        self.clock += len(acting)
-        task = self.task
-        obs = {a: self._seen(observations[a]) for a in acting}
-        rew = {a: rewards[a] for a in acting}
-        term = {a: terminations[a] for a in acting}
-        trunc = {a: truncations[a] for a in acting}
-        info = {a: {**infos[a], TASK: task} for a in acting}
-        if (
-            self.segments
-            and self.segment < len(self.segments)
-            and self.clock >= self.segments[self.segment][2]
-        ):
-            for agent in acting:
-                if not (term[agent] or trunc[agent]):
-                    trunc[agent] = True
-                info[agent]["task_switch"] = True
-            self._pending = True
-            self.agents = []
-        else:
-            self.agents = [a for a in acting if not (term[a] or trunc[a])]
-        return obs, rew, term, trunc, info
+        return full
 
     def _seen(self, observation):
         if self.stream.spec.announce:
