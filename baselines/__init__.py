@@ -1,11 +1,15 @@
-"""Baselines that reproduce the Flatland paper's experiment on ``fruits_poisons``.
+"""Baselines: the Flatland paper's experiment on ``fruits_poisons``, and learners for
+the multi-agent and lifelong tasks.
 
 One readable file per algorithm, after CleanRL: ``dqn.py`` (keras-rl's DQN),
 ``a3c.py`` (universe-starter-agent's A3C, with a synchronous A2C mode), ``dfp.py``
-(Direct Future Prediction), ``ppo.py`` (shared-parameter PPO for several agents).
-``common.py`` holds the pieces they share; ``run.py`` runs many seeds and ``plot.py``
-draws the paper's figure and the results table. They run on any scenario: the log's
-counters are the scenario's own (``common.info_counters``).
+(Direct Future Prediction), ``ppo.py`` (shared-parameter PPO for several agents, on the
+batched env), ``lifelong.py`` (PPO through a task stream: fine-tuning, cloning from
+replay, and the single-task reference) and ``rllib_ppo.py`` (Ray RLlib). ``networks.py``
+encodes any observation by its entries' shapes; ``common.py`` holds the pieces the
+paper's three share; ``run.py`` runs many seeds and ``plot.py`` draws the paper's figure
+and the results table. They run on any scenario: the log's counters are the scenario's
+own (``common.info_counters``).
 
     python -m baselines.dqn --seed 0 --total-timesteps 250000
     python -m baselines.run dqn --seeds 30 --workers 2 --steps 250000 --out runs

@@ -1,1 +1,3 @@
-"""sensors"""
+"""What agents sense: the ``Sensor`` kinds (``sensor``) and the suite of one agent's
+sensors; the geometry snapshot and the compiled ray kernels behind cameras, lidar and the
+top-down map; touch, proprioception, smell and hearing; noise; the global state."""
