@@ -212,3 +212,28 @@ def test_one_kernel_call_on_one_thread_gives_what_the_threads_give():
     for _ in range(45):
         actions = rng.integers(0, 3, 12)
         assert data_equivalence(threads.step(actions), one.step(actions), exact=True)
+
+
+def test_each_worlds_global_state_is_what_a_separate_env_gives_through_resets():
+    n, seed = 3, 21
+    batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=n, max_cycles=6)
+    envs = [flatland_ma.parallel_env("fruits_poisons_multi", max_cycles=6) for _ in range(n)]
+    with pytest.raises(RuntimeError, match="reset"):
+        batch.state()
+    batch.reset(seed=seed)
+    for w, env in enumerate(envs):
+        env.reset(seed=seed + w)
+    assert batch.state_space == gymnasium.vector.utils.batch_space(envs[0].state_space, n)
+    m, ended, rng = batch.agents_per_world, [False] * n, np.random.default_rng(0)
+    for _ in range(20):  # episodes of 6 steps: every world resets twice or more
+        actions = rng.integers(0, 3, batch.num_slots)
+        batch.step(actions)
+        for w, env in enumerate(envs):
+            if ended[w]:
+                env.reset()
+            else:
+                env.step({a: actions[w * m + env.possible_agents.index(a)] for a in env.agents})
+            ended[w] = not env.agents
+        state = batch.state()
+        assert batch.state_space.contains(state)
+        np.testing.assert_array_equal(state, np.stack([env.state() for env in envs]))

@@ -29,6 +29,7 @@ def _same_as_one_batch(scenario, n, shards, steps, context=None, **kwargs):
     try:
         assert sharded.observation_space == single.observation_space
         assert sharded.action_space == single.action_space
+        assert sharded.state_space == single.state_space
         assert data_equivalence(sharded.reset(seed=7), single.reset(seed=7), exact=True)
         sharded.single_action_space.seed(3)
         inert = 0
@@ -38,6 +39,7 @@ def _same_as_one_batch(scenario, n, shards, steps, context=None, **kwargs):
             )
             got, want = sharded.step(actions), single.step(actions)
             assert data_equivalence(got, want, exact=True), t
+            np.testing.assert_array_equal(sharded.state(), single.state())
             inert += int((~got[4]["active"]).sum())
         return inert
     finally:

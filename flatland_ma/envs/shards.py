@@ -89,6 +89,8 @@ class ShardedParallelEnv:
         self.single_observation_space = probe.single_observation_space
         self.single_action_space = probe.single_action_space
         self.padding = probe.padding
+        self.single_state_space = probe.single_state_space
+        self.state_space = gymnasium.vector.utils.batch_space(probe.single_state_space, num_worlds)
         """How observations are padded to one space (``pad=True``), or None."""
         self.observation_space = gymnasium.vector.utils.batch_space(
             self.single_observation_space, self.num_slots
@@ -175,6 +177,14 @@ class ShardedParallelEnv:
             self._send(k, ("step", None))
         self._collect()
         return (*self._results(), self._infos())
+
+    def state(self) -> np.ndarray:
+        """Every world's global state, one row per world, as ``BatchedParallelEnv.state``."""
+        if not self._ready:
+            raise RuntimeError("call reset() before state()")
+        for k in range(self.num_shards):
+            self._send(k, ("state", None))
+        return np.concatenate([self._answer(k) for k in range(self.num_shards)])
 
     def close(self) -> None:
         for pipe in self._pipes:
@@ -304,6 +314,9 @@ def _serve(pipe, scenario, num_worlds, max_cycles, overrides, slots, buffers, la
         if command == "close":
             break
         try:
+            if command == "state":
+                pipe.send(("ok", batch.state()))
+                continue
             if command == "reset":
                 observations, infos = batch.reset(seed=payload)
                 rewards = terminations = truncations = None

@@ -124,6 +124,9 @@ class BatchedParallelEnv:
                     "policy); pad=True pads observations that differ (actions must agree), "
                     "SuperSuit pads both (docs/integrations.md)"
                 )
+        self.single_state_space = first.state_space
+        """One world's global state space (``FlatlandParallelEnv.state``)."""
+        self.state_space = batch_space(first.state_space, num_worlds)
         self.observation_space = batch_space(self.single_observation_space, self.num_slots)
         self.action_space = batch_space(self.single_action_space, self.num_slots)
         self._observations = _buffer(self.single_observation_space, self.num_slots)
@@ -199,6 +202,15 @@ class BatchedParallelEnv:
             self._out(self._truncations),
             self._infos(),
         )
+
+    def state(self) -> np.ndarray:
+        """Every world's global state (``FlatlandParallelEnv.state``), one row per world,
+        for centralised critics: slot ``s`` plays in world ``s // agents_per_world``. A
+        world whose episode ended on the last step shows its final state until the next
+        step resets it."""
+        if any(env.episode is None for env in self.worlds):
+            raise RuntimeError("call reset() before state()")
+        return np.stack([env.state() for env in self.worlds])
 
     def close(self) -> None:
         for env in self.worlds:
