@@ -10,10 +10,16 @@ preprocessing. Each entry of the observation is encoded by its shape:
 - anything else (the heard messages, proprioception, ...): flattened as it is.
 
 The encodings are joined and pass one fully connected layer (``hidden`` units), shared by
-the value head and the policy's heads. A ``Discrete`` action space has one categorical
-head; a ``MultiDiscrete`` one (moves plus words on the channel) has one per component,
-independent given the features: an action's log-probability and entropy are the sums of
-its components'. The policy's logits come out joined along the last axis.
+the value head and the policy's heads. With ``state_size`` the value comes instead from a
+critic of its own that reads the world's global state and which agent the slot is (a
+centralised critic, as MAPPO's; Yu et al., "The Surprising Effectiveness of PPO in
+Cooperative Multi-Agent Games", 2022): two layers of ``hidden`` units. The policy still
+reads only the agent's own observation, so a checkpoint plays without the state.
+
+A ``Discrete`` action space has one categorical head; a ``MultiDiscrete`` one (moves plus
+words on the channel) has one per component, independent given the features: an action's
+log-probability and entropy are the sums of its components'. The policy's logits come
+out joined along the last axis.
 """
 
 from __future__ import annotations
@@ -126,6 +132,7 @@ class Agent(nn.Module):
         hidden: int = 128,
         channels: int = 3,
         network: str = "strided",
+        state_size: int = 0,
     ):
         super().__init__()
         if isinstance(observation_space, spaces.Dict):
@@ -148,7 +155,18 @@ class Agent(nn.Module):
                 layer_init(layer)
         self.sizes = action_sizes(action_space)
         self.actor = layer_init(nn.Linear(hidden, sum(self.sizes)), std=0.01)
-        self.critic = layer_init(nn.Linear(hidden, 1), std=1.0)
+        self.state_size = state_size
+        """The length of the centralised critic's input; 0: the value reads the features."""
+        if state_size:
+            self.critic = nn.Sequential(
+                layer_init(nn.Linear(state_size, hidden)),
+                nn.ReLU(),
+                layer_init(nn.Linear(hidden, hidden)),
+                nn.ReLU(),
+                layer_init(nn.Linear(hidden, 1), std=1.0),
+            )
+        else:
+            self.critic = layer_init(nn.Linear(hidden, 1), std=1.0)
 
     def features(self, observation) -> torch.Tensor:
         if self.dict_input:
@@ -161,12 +179,17 @@ class Agent(nn.Module):
         """The policy's logits, every head's joined along the last axis."""
         return self.actor(self.features(observation))
 
-    def value(self, observation) -> torch.Tensor:
+    def value(self, observation, state: torch.Tensor | None = None) -> torch.Tensor:
+        """The value of each row: from ``state`` with a centralised critic, else from the
+        observation."""
+        if self.state_size:
+            assert state is not None, "a centralised critic reads the state"
+            return self.critic(state).squeeze(-1)
         return self.critic(self.features(observation)).squeeze(-1)
 
-    def act(self, observation, action: torch.Tensor | None = None):
+    def act(self, observation, action: torch.Tensor | None = None, state=None):
         """A sampled action (batch, heads) unless ``action`` is given, its log-probability,
-        the policy's entropy and the value."""
+        the policy's entropy and the value (from ``state`` with a centralised critic)."""
         h = self.features(observation)
         heads = [
             torch.distributions.Categorical(logits=logits)
@@ -177,4 +200,7 @@ class Agent(nn.Module):
         logprob = sum(head.log_prob(action[..., k]) for k, head in enumerate(heads))
         entropy = sum(head.entropy() for head in heads)
         assert isinstance(logprob, torch.Tensor) and isinstance(entropy, torch.Tensor)
+        if self.state_size:
+            assert state is not None, "a centralised critic reads the state"
+            return action, logprob, entropy, self.critic(state).squeeze(-1)
         return action, logprob, entropy, self.critic(h).squeeze(-1)

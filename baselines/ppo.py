@@ -104,6 +104,10 @@ class Args:
     """Threads torch may use."""
     shards: int = 1
     """Processes the worlds are spread over (1: all in this process)."""
+    critic: Literal["local", "state"] = "local"
+    """What the value reads: "local", the agent's own observation (through the policy's
+    layers); "state", a centralised critic of its own on the world's global state and
+    which agent of the world the slot is (MAPPO)."""
 
 
 def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> torch.Tensor:
@@ -133,13 +137,16 @@ def update(
     returns,
     values,
     penalty=None,
+    states=None,
 ) -> dict:
     """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
     mean losses. Clipped surrogate, clipped value loss, entropy bonus:
         L = -min(ratio A, clip(ratio, 1 - eps, 1 + eps) A)
             + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
-            - ent_coef * H [+ penalty()],   ratio = pi(a|s) / pi_old(a|s)"""
+            - ent_coef * H [+ penalty()],   ratio = pi(a|s) / pi_old(a|s)
+    with V read from ``states`` where the critic is centralised."""
     used = acting.reshape(-1).nonzero().squeeze(1)
+    b_states = None if states is None else states.reshape(-1, states.shape[-1])
     b_x = tree_map(lambda x: x.reshape(-1, *x.shape[2:]), observations)
     b_actions, b_logprobs = actions.reshape(-1, actions.shape[-1]), logprobs.reshape(-1)
     b_advantages, b_returns, b_values = (
@@ -152,7 +159,8 @@ def update(
         # num_minibatches parts of (nearly) equal size: no leftover part of one entry.
         for index in used[torch.randperm(len(used))].tensor_split(args.num_minibatches):
             x = tree_map(lambda x, index=index: x[index], b_x)
-            _, new_logprob, entropy, new_value = agent.act(x, b_actions[index])
+            state = None if b_states is None else b_states[index]
+            _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
             log_ratio = new_logprob - b_logprobs[index]
             ratio = log_ratio.exp()
             advantage = b_advantages[index]
@@ -212,6 +220,9 @@ class Rollout:
         whether it terminated (no bootstrap)."""
         self.next_acting = np.ones(slots, bool)
         """Whether the env will use each slot's next action."""
+        self.states = torch.zeros((T, slots, agent.state_size)) if agent.state_size else None
+        """Each slot's critic input (``slot_states``) when the critic is centralised."""
+        self.next_state: torch.Tensor | None = None
         self.env_seconds = 0.0
 
     def collect(self, agent: Agent, env, observation, reward_scale: float, after_step):
@@ -222,9 +233,12 @@ class Rollout:
             for stored, x in zip(tree_leaves(self.observations), tree_leaves(observation)):
                 stored[t] = torch.from_numpy(x)
             self.acting[t] = torch.from_numpy(self.next_acting)
+            state = None
+            if self.states is not None:
+                self.states[t] = state = torch.from_numpy(slot_states(env))
             with torch.inference_mode():
                 action, logprob, _, value = agent.act(
-                    tree_map(lambda x, t=t: x[t], self.observations)
+                    tree_map(lambda x, t=t: x[t], self.observations), state=state
                 )
             self.actions[t], self.logprobs[t], self.values[t] = action, logprob, value
             tick = time.perf_counter()
@@ -238,13 +252,15 @@ class Rollout:
             after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
             # The env uses a slot's action next step unless it just finished or was inert.
             self.next_acting = infos["active"] & ~done
+        if self.states is not None:
+            self.next_state = torch.from_numpy(slot_states(env))
         return observation
 
     def learn(self, agent: Agent, optimizer, args, observation, penalty=None) -> dict:
         """GAE from the value of ``observation`` (what the last step returned), then
         PPO's epochs (``update``), with ``penalty()`` added to the loss if given."""
         with torch.inference_mode():
-            next_value = agent.value(tree_map(torch.from_numpy, observation))
+            next_value = agent.value(tree_map(torch.from_numpy, observation), self.next_state)
         advantages = gae(
             self.rewards,
             self.values,
@@ -266,7 +282,17 @@ class Rollout:
             advantages + self.values,
             self.values,
             penalty,
+            self.states,
         )
+
+
+def slot_states(env) -> np.ndarray:
+    """Each slot's input to a centralised critic: its world's global state
+    (``env.state()``, one row per world) and a one-hot of which agent of the world it is."""
+    m = env.agents_per_world
+    states = np.repeat(env.state(), m, axis=0)
+    who = np.tile(np.eye(m, dtype=np.float32), (env.num_worlds, 1))
+    return np.concatenate([states, who], axis=1, dtype=np.float32)
 
 
 def batched_env(args: Args) -> BatchedParallelEnv | ShardedParallelEnv:
@@ -312,6 +338,7 @@ def main(args: Args) -> dict:
         args.hidden,
         input_channels(args.use_depth),
         args.network,
+        state_size=env.single_state_space.shape[0] + m if args.critic == "state" else 0,
     )
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
 

@@ -425,6 +425,50 @@ def test_ppo_shares_one_network_between_roles_that_observe_differently(tmp_path,
         make_policy(path, flatland_ma.parallel_env("fruits_poisons_multi"), "agent_0")
 
 
+def test_a_centralised_critic_values_the_world_state_and_which_agent_it_is(tmp_path):
+    """MAPPO's critic: each slot's input is its world's state and a one-hot of the agent;
+    the value moves with the state, not with the observation; the policy plays alone."""
+    import torch
+
+    from baselines.networks import Agent
+    from baselines.ppo import slot_states
+    from flatland_ma.envs.vector import BatchedParallelEnv
+    from flatland_ma.policies.checkpoint import read_checkpoint
+    from flatland_ma.policies.named import make_policy
+
+    batch = BatchedParallelEnv("coop_carry", num_worlds=3)
+    batch.reset(seed=0)
+    batch.step(np.zeros(batch.num_slots, np.int64))
+    rows, states, m = slot_states(batch), batch.state(), batch.agents_per_world
+    assert rows.shape == (batch.num_slots, states.shape[1] + m) and rows.dtype == np.float32
+    for slot in range(batch.num_slots):
+        np.testing.assert_array_equal(rows[slot, : states.shape[1]], states[slot // m])
+        np.testing.assert_array_equal(rows[slot, states.shape[1] :], np.eye(m)[slot % m])
+    space = batch.single_observation_space
+    agent = Agent(space, batch.single_action_space, state_size=rows.shape[1])
+    observations = torch.as_tensor(np.stack([space.sample() for _ in range(4)]))
+    state = torch.as_tensor(rows[:4])
+    with torch.no_grad():
+        value = agent.value(observations, state)
+        assert torch.equal(agent.value(torch.zeros_like(observations), state), value)
+        assert not torch.equal(agent.value(observations, state + 0.5), value)
+        assert torch.equal(agent.act(observations, None, state)[3], value)
+
+    run_module(
+        "baselines.ppo",
+        *("--scenario", "coop_carry", "--critic", "state", "--num-envs", "2"),
+        *("--num-steps", "32", "--total-timesteps", "256", "--checkpoint-every", "0"),
+        *("--no-tensorboard", "--csv", str(tmp_path / "seed_0.csv")),
+    )
+    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    assert saved["args"]["critic"] == "state"
+    assert saved["model"]["critic.0.weight"].shape[1] == rows.shape[1]
+    env = __import__("flatland_ma").parallel_env("coop_carry")
+    policy = make_policy(str(tmp_path / "seed_0.pt"), env, "agent_0", seed=0)
+    observations, _ = env.reset(seed=0)
+    assert env.action_space("agent_0").contains(policy.act(observations["agent_0"]))
+
+
 def test_ppo_advantages_match_a_hand_computation():
     """Two slots, three steps: slot 0 is truncated at step 1 (its next observation is the
     episode's last, whose value bootstraps), slot 1 terminates at step 0."""
