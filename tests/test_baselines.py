@@ -737,3 +737,16 @@ def test_lifelong_learners_write_what_the_report_reads(tmp_path):
         timeout=120,
     )
     assert result.returncode == 0 and "finetune (1)" in result.stdout, result.stderr
+
+
+def test_the_lifelong_learner_refuses_ppo_options_it_does_not_use():
+    result = subprocess.run(
+        [sys.executable, "-m", "baselines.lifelong", "--critic", "state", "--shards", "2"],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 1
+    assert "does not take --critic state, --shards" in result.stderr
