@@ -190,6 +190,17 @@ def test_the_state_is_the_task_worlds_padded_to_the_longest(tmp_path):
         assert len(labels) == len(state) and labels[: own.shape[0]] == env.env.state_labels
         assert set(labels[own.shape[0] :]) <= {""}
         env.step({agent: env.action_space(agent).sample() for agent in env.agents})
+    # The batched env: one row per world, the same padding, across the switch.
+    batch = StreamBatchedEnv(path, 2)
+    assert batch.single_state_space == env.state_space
+    batch.reset(seed=0)
+    for task in (0, 0, 0, 1, 1):  # 2 agent-steps a step: the switch at 4, the new task next
+        assert batch.task == task
+        state, own = batch.state(), batch.env.state()
+        assert batch.state_space.contains(state) and state.shape == (2, sizes[1])
+        np.testing.assert_array_equal(state[:, : own.shape[1]], own)
+        assert not state[:, own.shape[1] :].any()
+        batch.step(np.zeros(batch.num_slots, np.int64))
 
 
 def test_same_seed_and_actions_live_the_same_life_across_a_switch(tmp_path):

@@ -16,7 +16,8 @@ agents of every world: world ``w``'s ``j``-th focal agent is slot
   neither termination nor truncation), world ``w`` seeded from the life's generator.
 
 ``infos["task"]`` holds the task's index for every slot. ``reset(seed=s)`` starts the
-life: the first task's worlds reset with ``s + w``.
+life: the first task's worlds reset with ``s + w``. ``state()`` holds each world's global
+state, padded to the stream's longest as in ``StreamParallelEnv``.
 """
 
 from __future__ import annotations
@@ -24,10 +25,11 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from gymnasium.vector.utils import batch_space
 
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.lifelong.drift import Drift
-from flatland_ma.lifelong.envs import TASK, announced, background_policies
+from flatland_ma.lifelong.envs import TASK, announced, background_policies, state_space
 from flatland_ma.lifelong.streams import Stream, load_stream
 
 
@@ -65,6 +67,9 @@ class StreamBatchedEnv:
             announced(space, self.tasks) if self.stream.spec.announce else space
         )
         self.single_action_space = first.worlds[0].action_space(self.possible_agents[0])
+        self.single_state_space = state_space(self.stream)
+        """Room for any task's global state (see ``state()``)."""
+        self.state_space = batch_space(self.single_state_space, num_worlds)
         self.clock = 0
         self.segment = 0
         self._life: np.random.Generator | None = None
@@ -208,6 +213,14 @@ class StreamBatchedEnv:
         out_infos = {key: np.asarray(value)[slots] for key, value in infos.items()}
         out_infos[TASK] = np.full(self.num_slots, self.task, np.int64)
         return observations, rewards, terminations, truncations, out_infos
+
+    def state(self) -> np.ndarray:
+        """Each world's global state in the task on, one row per world, padded with zeros
+        to ``single_state_space``."""
+        own = self.env.state()
+        padded = np.zeros((self.num_worlds, self.single_state_space.shape[0]), np.float32)
+        padded[:, : own.shape[1]] = own
+        return padded
 
     def close(self) -> None:
         for env in self._envs.values():
