@@ -259,10 +259,13 @@ def train(args: Args, agent, optimizer, env, steps: int, evaluator, every: int, 
 def main(args: Args) -> dict:
     from flatland_ma.lifelong import StreamBatchedEnv, load_stream, task_batched
 
-    unused = {"--critic state": args.critic != "local", "--shards": args.shards != 1}
-    unused["--no-channel"] = args.no_channel
-    if any(unused.values()):  # PPO's options that a life through a stream does not take
-        wrong = ", ".join(option for option, given in unused.items() if given)
+    given = {  # PPO's options that a life through a stream does not take
+        "--critic state": args.critic != "local",
+        "--shards": args.shards != 1,
+        "--no-channel": args.no_channel,
+    }
+    wrong = ", ".join(option for option, on in given.items() if on)
+    if wrong:
         raise SystemExit(f"baselines.lifelong does not take {wrong} (options of baselines.ppo)")
     seed_everything(args.seed)
     torch.set_num_threads(args.torch_threads)

@@ -40,30 +40,31 @@ def single_agent_scenarios() -> dict[str, int]:
 
 
 def register_gym_ids() -> list[str]:
-    ids = []
-    for name, max_steps in single_agent_scenarios().items():
-        env_id = gym_id(name)
-        if env_id not in gymnasium.registry:
-            gymnasium.register(
-                id=env_id,
-                entry_point="flatland_ma.envs.gym:FlatlandGymEnv",
-                vector_entry_point="flatland_ma.envs.gym_vector:make_vector",
-                max_episode_steps=max_steps,
-                kwargs={"scenario": name, "time_limit": False},
-            )
-        ids.append(env_id)
-    return ids
+    return [
+        _register(
+            gym_id(name),
+            entry_point="flatland_ma.envs.gym:FlatlandGymEnv",
+            vector_entry_point="flatland_ma.envs.gym_vector:make_vector",
+            max_episode_steps=max_steps,
+            kwargs={"scenario": name, "time_limit": False},
+        )
+        for name, max_steps in single_agent_scenarios().items()
+    ]
 
 
 def register_stream_ids() -> list[str]:
-    ids = []
-    for name in list_streams():
-        env_id = stream_gym_id(name)
-        if env_id not in gymnasium.registry:
-            gymnasium.register(
-                id=env_id,
-                entry_point="flatland_ma.lifelong.envs:StreamGymEnv",
-                kwargs={"stream": name},
-            )
-        ids.append(env_id)
-    return ids
+    return [
+        _register(
+            stream_gym_id(name),
+            entry_point="flatland_ma.lifelong.envs:StreamGymEnv",
+            kwargs={"stream": name},
+        )
+        for name in list_streams()
+    ]
+
+
+def _register(env_id: str, **spec) -> str:
+    """Register ``env_id`` unless it already is (the package imported again)."""
+    if env_id not in gymnasium.registry:
+        gymnasium.register(id=env_id, **spec)
+    return env_id

@@ -94,16 +94,21 @@ class Padding:
     def pad(self, agent: int, observation) -> dict[str, np.ndarray]:
         """Agent ``agent``'s (its index in the world) observation in the padded space."""
         out = {key: np.zeros(box.shape or (), box.dtype) for key, box in self.space.spaces.items()}
+        self.mark(out, agent)
         self.put(out, agent, observation)
         return out
 
-    def put(self, buffer: Any, agent: int, observation, slot: Any = ()) -> None:
-        """Write agent ``agent``'s observation into ``buffer`` (a dict of arrays of the
-        padded space's entries, at index ``slot`` of each): its entries in their corners,
-        its role's one-hot. Other places are left as they are (zeros, in a fresh buffer)."""
-        entries = observation if isinstance(observation, dict) else {OBSERVATION: observation}
-        for key, corner in self._corner[agent].items():
-            buffer[key][slot][corner] = entries[key]
+    def mark(self, buffer: Any, agent: int, slot: Any = ()) -> None:
+        """Write agent ``agent``'s role (one-hot) into ``buffer`` at index ``slot``: once
+        per episode, as a slot's role does not change within one."""
         role = buffer[ROLE][slot]
         role[...] = 0.0
         role[self.role_of[agent]] = 1.0
+
+    def put(self, buffer: Any, agent: int, observation, slot: Any = ()) -> None:
+        """Write agent ``agent``'s observation into ``buffer`` (a dict of arrays of the
+        padded space's entries, at index ``slot`` of each): its entries in their corners.
+        Other places, its role's among them (``mark``), are left as they are."""
+        entries = observation if isinstance(observation, dict) else {OBSERVATION: observation}
+        for key, corner in self._corner[agent].items():
+            buffer[key][slot][corner] = entries[key]

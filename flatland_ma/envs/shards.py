@@ -89,9 +89,9 @@ class ShardedParallelEnv:
         self.single_observation_space = probe.single_observation_space
         self.single_action_space = probe.single_action_space
         self.padding = probe.padding
+        """How observations are padded to one space (``pad=True``), or None."""
         self.single_state_space = probe.single_state_space
         self.state_space = gymnasium.vector.utils.batch_space(probe.single_state_space, num_worlds)
-        """How observations are padded to one space (``pad=True``), or None."""
         self.observation_space = gymnasium.vector.utils.batch_space(
             self.single_observation_space, self.num_slots
         )

@@ -223,6 +223,8 @@ class BatchedParallelEnv:
         self._rays.set(w, env.running.sensors)
         base = w * self.agents_per_world
         for j, agent in enumerate(env.possible_agents):
+            if self.padding is not None:  # inert slots were zeroed: name the role again
+                self.padding.mark(self._observations, j, base + j)
             self._put(base + j, j, observations[agent])
             self._active[base + j] = True
             self._count(base + j, infos[agent])

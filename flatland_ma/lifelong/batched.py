@@ -29,7 +29,13 @@ from gymnasium.vector.utils import batch_space
 
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.lifelong.drift import Drift
-from flatland_ma.lifelong.envs import TASK, announced, background_policies, state_space
+from flatland_ma.lifelong.envs import (
+    TASK,
+    announced,
+    background_policies,
+    padded_state,
+    state_space,
+)
 from flatland_ma.lifelong.streams import Stream, load_stream
 
 
@@ -217,10 +223,7 @@ class StreamBatchedEnv:
     def state(self) -> np.ndarray:
         """Each world's global state in the task on, one row per world, padded with zeros
         to ``single_state_space``."""
-        own = self.env.state()
-        padded = np.zeros((self.num_worlds, self.single_state_space.shape[0]), np.float32)
-        padded[:, : own.shape[1]] = own
-        return padded
+        return padded_state(self.env.state(), self.single_state_space.shape[0])
 
     def close(self) -> None:
         for env in self._envs.values():

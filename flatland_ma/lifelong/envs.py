@@ -88,6 +88,14 @@ def state_space(stream: Stream) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
+def padded_state(own: np.ndarray, size: int) -> np.ndarray:
+    """A task's global state (one row, or one row per world) padded with zeros to
+    ``size`` entries."""
+    padded = np.zeros((*own.shape[:-1], size), np.float32)
+    padded[..., : own.shape[-1]] = own
+    return padded
+
+
 def task_env(stream: Stream, task: int, render_mode: str | None = None) -> FlatlandParallelEnv:
     """A world of the stream's task ``task`` (all its agents; no switching)."""
     env = FlatlandParallelEnv(stream.scenarios[task], render_mode=render_mode)
@@ -252,10 +260,7 @@ class StreamParallelEnv(ParallelEnv):
 
     def state(self) -> np.ndarray:
         """The global state of the task's world, padded with zeros to ``state_space``."""
-        own = self.env.state()
-        padded = np.zeros(self.state_space.shape, np.float32)
-        padded[: own.shape[0]] = own
-        return padded
+        return padded_state(self.env.state(), self.state_space.shape[0])
 
     @property
     def state_labels(self) -> tuple[str, ...]:

@@ -42,7 +42,6 @@ from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.scenario.types import Spec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
-"""The package whose ``streams`` folder holds the shipped streams."""
 Label = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
 ScenarioName = Annotated[str, Field(strict=True, min_length=1, max_length=500)]
 MAX_STEPS = 10**9
