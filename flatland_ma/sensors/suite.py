@@ -19,6 +19,7 @@ from flatland_ma.sensors.geometry import Geometry
 from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
 from flatland_ma.sensors.semantic import kind_table
 from flatland_ma.sensors.sensor import Sensor
+from flatland_ma.sensors.threads import Chooser, fit_threads
 from flatland_ma.world.entities import Entity
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.world import World
@@ -163,15 +164,17 @@ def _observe_worlds_serial(worlds, which):
 class WorldsKernel:
     """One kernel call for the rays of many worlds of one scenario: ``set(w, suite)`` when
     world ``w`` gets a new episode's sensors, ``prepare`` each world's suite, then
-    ``observe(which)`` casts the rays of the worlds ``which`` at once: over every core
-    numba may use (``numba.set_num_threads``) when ``parallel``, else on this thread (a
-    process forked from one that ran numba's threads must not start its own)."""
+    ``observe(which)`` casts the rays of the worlds ``which`` at once. When ``parallel``,
+    over numba's threads (as many as the CPUs this process may use) or on this thread,
+    whichever is faster as the machine's load changes (``threads.Chooser``); else always
+    on this thread (a process forked from one that ran numba's threads must not start its
+    own). Both give the same results."""
 
     def __init__(self, n: int, parallel: bool = True):
         self.n = n
         self.parallel = parallel
         self.worlds = None
-        self._function = None
+        self._function: Callable | None = None
 
     def set(self, w: int, suite: Sensors) -> None:
         args = suite.kernel_args
@@ -183,9 +186,18 @@ class WorldsKernel:
     def observe(self, which: np.ndarray) -> None:
         if self._function is None:
             signature = (nb.typeof(self.worlds), nb.typeof(which))
-            function = _observe_worlds if self.parallel else _observe_worlds_serial
-            key = (function, signature)
-            if key not in _KERNELS:
-                _KERNELS[key] = function.compile(signature)  # type: ignore[attr-defined]
-            self._function = _KERNELS[key]
+            serial = _compiled(_observe_worlds_serial, signature)
+            if self.parallel:
+                threads = fit_threads()
+                parallel = _compiled(_observe_worlds, signature) if threads > 1 else serial
+                self._function = Chooser(parallel, serial, threads)
+            else:
+                self._function = serial
         self._function(self.worlds, which)
+
+
+def _compiled(function: Callable, signature: tuple) -> Callable:
+    key = (function, signature)
+    if key not in _KERNELS:
+        _KERNELS[key] = function.compile(signature)  # type: ignore[attr-defined]
+    return _KERNELS[key]
