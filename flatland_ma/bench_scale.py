@@ -24,6 +24,8 @@ import numpy as np
 from flatland_ma.bench import BenchResult, bare_space_rate
 
 WORLDS = (1, 16, 256, 1024)
+SECONDS = 3.0
+"""How long each row is timed, after its warm-up step."""
 SCENARIOS = ("fruits_poisons", "fruits_poisons_multi")
 """One and four agents per world, a 64-ray RGB-D camera each."""
 
@@ -33,7 +35,7 @@ def cores() -> int:
 
 
 def bench_worlds(
-    scenario: str, worlds: int, processes: int = 1, seconds: float = 3.0, **overrides
+    scenario: str, worlds: int, processes: int = 1, seconds: float = SECONDS, **overrides
 ) -> BenchResult:
     """World steps per second of ``worlds`` worlds in one batched env (``processes`` 1)
     or sharded over ``processes`` processes; ``overrides`` as for the envs."""
@@ -96,13 +98,35 @@ def bench_ppo(steps: int = 65_536, worlds: int = 16, root: Path | None = None) -
     return TrainingRate(label, summary["steps"] / summary["wall_seconds"])
 
 
+def _processes(worlds: int) -> list[int]:
+    """The rows of ``worlds`` worlds: one process, and as many as the cores (or worlds)."""
+    return sorted({1, min(cores(), worlds)})
+
+
+def check_worlds(worlds: tuple[int, ...]) -> None:
+    """``ValueError`` (naming the scenario and ``--worlds``) unless every row ``run`` would
+    measure fits the work budget (``budget.check_batch``: worlds x agents x sensors)."""
+    from flatland_ma.scenario.budget import check_batch
+    from flatland_ma.scenario.loader import load_scenario
+
+    for scenario in SCENARIOS:
+        spec = load_scenario(scenario)
+        for n in worlds:
+            for processes in _processes(n):
+                try:
+                    check_batch(spec, n, "--worlds", processes if processes > 1 else 0)
+                except ValueError as err:
+                    raise ValueError(f"{scenario}: {err}") from None
+
+
 def run(
-    worlds: tuple[int, ...] = WORLDS, seconds: float = 3.0, ppo: bool = True
+    worlds: tuple[int, ...] = WORLDS, seconds: float = SECONDS, ppo: bool = True
 ) -> tuple[list[BenchResult], list[TrainingRate]]:
+    check_worlds(worlds)
     results = []
     for scenario in SCENARIOS:
         for n in worlds:
-            for processes in sorted({1, min(cores(), n)}):
+            for processes in _processes(n):
                 results.append(bench_worlds(scenario, n, processes, seconds))
     return results, [bench_ppo()] if ppo else []
 

@@ -1,25 +1,39 @@
-"""The ``flatland-ma`` command: list | validate | demo | record | play | bench."""
+"""The ``flatland-ma`` command line: one subcommand a task (``flatland-ma --help`` lists them).
+
+Every option has a checked type (``flatland_ma.options``), and each command's checks that
+need several options or a loaded scenario run right after parsing: a wrong option stops
+the command with status 2 and the option's name, before any work starts.
+"""
 
 from __future__ import annotations
 
 import argparse
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from flatland_ma import __version__
+from flatland_ma import __version__, bench_command, options
 from flatland_ma.evaluation import command as evaluation
 from flatland_ma.lifelong import command as lifelong
+from flatland_ma.options import OptionError
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 
+DESCRIPTION = (
+    "Scenarios of a multi-agent, first-person 2-D world: list and check them, watch and "
+    "record play, play at the keyboard, measure speed, evaluate policies against suites "
+    "and report lifelong-learning runs. Each command has its own --help."
+)
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="flatland-ma", description=__doc__)
+
+def build_parser() -> argparse.ArgumentParser:
+    """The parser of every command and option (``subcommands`` finds each command's)."""
+    parser = argparse.ArgumentParser(prog="flatland-ma", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
-    commands = parser.add_subparsers(dest="command", required=True)
+    commands = parser.add_subparsers(dest="command", required=True, metavar="command")
 
     commands.add_parser("list", help="the shipped scenarios, one line each")
 
@@ -27,30 +41,53 @@ def main(argv: list[str] | None = None) -> int:
     validate.add_argument("files", nargs="+", help="scenario files or shipped names")
 
     demo = commands.add_parser("demo", help="greedy and random play on fruits_poisons")
-    demo.add_argument("--episodes", type=int, default=10)
-    demo.add_argument("--out", default="demo", help="folder for the GIF and the PNG")
+    demo.add_argument(
+        "--episodes",
+        type=options.positive(options.MAX_EPISODES),
+        default=10,
+        help="episodes per policy (default: 10)",
+    )
+    demo.add_argument(
+        "--out",
+        type=options.output_folder,
+        default="demo",
+        help="folder for the GIF and the PNG, made if missing (default: demo)",
+    )
 
     record = commands.add_parser(
         "record",
         help="write a GIF or an MP4 (and a PNG of its middle frame), or only a PNG, of play",
     )
-    record.add_argument("scenario")
+    record.add_argument("scenario", help="a shipped scenario's name or a scenario file")
     record.add_argument(
         "--policy",
+        type=options.policy,
         default="greedy",
         metavar="POLICY",
         help="greedy, planner, carrier, sniffer, random, or the path of a checkpoint saved by "
         "the baselines (e.g. runs/ppo/fruits_poisons/seed_0.pt) (default: greedy)",
     )
-    record.add_argument("--steps", type=int, default=300)
-    record.add_argument("--every", type=int, default=2, help="keep one frame in this many")
-    record.add_argument("--seed", type=int, default=0)
+    record.add_argument(
+        "--steps",
+        type=options.positive(options.MAX_STEPS),
+        default=300,
+        help="steps to play at most; the recording also ends with the episode (default: 300)",
+    )
+    record.add_argument(
+        "--every",
+        type=options.positive(options.MAX_STEPS),
+        default=2,
+        help="keep one frame in this many, and the last (default: 2)",
+    )
+    record.add_argument("--seed", type=options.seed, default=0, help="the episode's (default: 0)")
     record.add_argument(
         "--out",
+        type=options.recording,
         default=None,
-        help="a .gif or .mp4, or a .png for the last frame only (default: <scenario>.gif)",
+        help="a .gif or .mp4, or a .png for the last frame only, in a folder that exists "
+        "(default: <scenario>.gif)",
     )
-    _world_options(record)
+    options.world_options(record)
 
     play = commands.add_parser(
         "play",
@@ -61,63 +98,101 @@ def main(argv: list[str] | None = None) -> int:
         "Tab: next agent. Esc or closing the window: quit. The world advances while a key "
         "is held; each episode's score is appended to --scores.",
     )
-    play.add_argument("scenario", nargs="?", default="fruits_poisons")
     play.add_argument(
-        "--seed", type=int, default=None, help="the first episode's (default: random)"
+        "scenario",
+        nargs="?",
+        default="fruits_poisons",
+        help="a shipped scenario's name or a scenario file (default: fruits_poisons)",
+    )
+    play.add_argument(
+        "--seed",
+        type=options.seed,
+        default=None,
+        help="the first episode's; episode e plays seed + e (default: random)",
     )
     play.add_argument(
         "--others",
+        type=options.policy,
         default="greedy",
         metavar="POLICY",
         help="the policy of the agents you do not drive: greedy, random, planner, carrier, "
         "sniffer, idle, or a checkpoint file saved by the baselines (default: greedy)",
     )
-    play.add_argument("--episodes", type=int, default=1)
+    play.add_argument(
+        "--episodes",
+        type=options.positive(options.MAX_EPISODES),
+        default=1,
+        help="episodes to play (default: 1)",
+    )
     play.add_argument(
         "--scores",
+        type=options.output_file(),
         default="play_scores.csv",
         help="CSV that each episode's score is appended to (time, scenario, seed, agent, steps, "
-        "score)",
+        "score) (default: play_scores.csv)",
     )
-    play.add_argument("--fps", type=float, default=30.0, help="frames (and steps) a second")
+    play.add_argument(
+        "--fps",
+        type=options.number(0.0, options.MAX_FPS, zero="as fast as it goes"),
+        default=30.0,
+        help="frames (and steps) a second, 0 for as fast as it goes (default: 30)",
+    )
     play.add_argument(
         "--keys",
+        type=options.key_script,
         default=None,
         metavar="SCRIPT",
         help="keys to press instead of the keyboard, e.g. 'up*20 left*5 tab up*10' (name*N "
-        "holds a key N frames, a+b holds two); the game ends with the script",
+        "holds a key N frames, a+b holds two, wait*N holds none); the game ends with the script",
     )
-    play.add_argument("--screenshot", default=None, help="a PNG of the window at the end")
-    _world_options(play)
+    play.add_argument(
+        "--screenshot",
+        type=options.output_file(".png"),
+        default=None,
+        help="a PNG of the window at the end",
+    )
+    options.world_options(play)
 
-    bench = commands.add_parser("bench", help="steps per second beside bare space.step")
-    bench.add_argument("--steps", type=int, default=20_000)
-    bench.add_argument("--json", action="store_true", help="print the figures as JSON")
-    bench.add_argument(
-        "--scale",
-        action="store_true",
-        help="instead: the batched env over many worlds, one process and every core, and PPO "
-        "end to end (a few minutes)",
-    )
-    bench.add_argument(
-        "--worlds",
-        default="1,16,256,1024",
-        help="with --scale: the numbers of worlds, comma-separated (default: 1,16,256,1024)",
-    )
-    bench.add_argument("--seconds", type=float, default=3.0, help="with --scale: per row")
-    bench.add_argument("--no-ppo", action="store_true", help="with --scale: skip PPO")
-
+    bench_command.add_parser(commands)
     evaluation.add_parser(commands)
     lifelong.add_parser(commands)
+    return parser
 
-    args = parser.parse_args(argv)
+
+def subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """Each command's parser, by name."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            return dict(action.choices)
+    return {}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command ``argv`` (default: the process's arguments); its exit status. A
+    wrong option gives 2 and a message naming it, before any work."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        checks: dict[str, Callable] = {
+            "record": _check_record,
+            "play": options.check_world,
+            "bench": bench_command.check,
+            "evaluate": evaluation.check,
+        }
+        if args.command in checks:
+            try:
+                checks[args.command](args)
+            except OptionError as err:
+                subcommands(parser)[args.command].error(str(err))
+    except SystemExit as exit_:  # argparse's errors (status 2), --help and --version (0)
+        return exit_.code if isinstance(exit_.code, int) else 2
     command = {
         "list": _list,
         "validate": _validate,
         "demo": _demo,
         "record": _record,
         "play": _play,
-        "bench": _bench,
+        "bench": bench_command.run,
         "evaluate": evaluation.run,
         "lifelong": lifelong.run,
     }[args.command]
@@ -130,24 +205,20 @@ def main(argv: list[str] | None = None) -> int:
         return 0
 
 
-def _world_options(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--agents", type=int, default=None, help="number of agents (n_agents)")
-    parser.add_argument(
-        "--sensors",
-        default=None,
-        metavar="TYPES",
-        help="each agent's sensors, by type with their defaults, e.g. camera,lidar,proprioception",
-    )
-
-
-def _overrides(args) -> dict:
-    """The scenario keys ``--agents`` and ``--sensors`` set."""
-    overrides: dict = {}
-    if args.agents is not None:
-        overrides["n_agents"] = args.agents
-    if args.sensors:
-        overrides["agent"] = {"sensors": [{"type": t} for t in args.sensors.split(",") if t]}
-    return overrides
+def _check_record(args) -> None:
+    options.check_world(args)
+    if args.out is None:
+        try:
+            args.out = options.recording(f"{args.scenario}.gif")
+        except argparse.ArgumentTypeError as err:
+            raise OptionError("--out", str(err)) from None
+    frames = args.steps // args.every + 2
+    if args.out.suffix.lower() != ".png" and frames > options.MAX_FRAMES:
+        raise OptionError(
+            "--every",
+            f"--steps {args.steps} with --every {args.every} keeps up to {frames:,} frames; "
+            f"at most {options.MAX_FRAMES:,} are held (about 1 MB each): keep fewer",
+        )
 
 
 def _list(args) -> int:
@@ -200,25 +271,18 @@ def _demo(args) -> int:
         fruits = np.mean([i["agent_0"]["fruits"] for i in scores.infos])
         poisons = np.mean([i["agent_0"]["poisons"] for i in scores.infos])
         print(f"{label:20} {scores.mean:>12.1f} {scores.std:>7.1f} {fruits:>7.1f} {poisons:>8.1f}")
-    out = Path(args.out)
+    out: Path = args.out
     gif = _write_recording("fruits_poisons", "greedy", 500, 2, 0, out / "fruits_poisons.gif")
     print(f"\nwrote {gif} and {gif.with_suffix('.png')}")
     return 0
 
 
 def _record(args) -> int:
-    from flatland_ma.render.video import check_writable
-
-    out = Path(args.out or f"{args.scenario}.gif")
-    try:
-        check_writable(out)
-    except ValueError as err:
-        print(f"flatland-ma record: {err}", file=sys.stderr)
-        return 2
     try:
         written = _write_recording(
-            args.scenario, args.policy, args.steps, args.every, args.seed, out, _overrides(args)
-        )
+            args.scenario, args.policy, args.steps, args.every, args.seed, args.out,
+            options.world_overrides(args),
+        )  # fmt: skip
     except ValueError as err:  # a bad override, or a policy the agents cannot follow
         print(f"flatland-ma record: {err}", file=sys.stderr)
         return 2
@@ -277,7 +341,7 @@ def _play(args) -> int:
             fps=args.fps,
             script=args.keys,
             screenshot=args.screenshot,
-            overrides=_overrides(args),
+            overrides=options.world_overrides(args),
         )
     except ValueError as err:  # a bad override, a bad key script, a policy that cannot run
         print(f"flatland-ma play: {err}", file=sys.stderr)
@@ -289,56 +353,6 @@ def _play(args) -> int:
         print(f"scores appended to {args.scores}")
     if session.stopped and session.tallies:
         print("left before the episode ended: its score is not written")
-    return 0
-
-
-def _bench(args) -> int:
-    from flatland_ma.bench import format_table, run
-    from flatland_ma.bench_sensors import format_costs, sensor_costs
-
-    if args.scale:
-        return _bench_scale(args)
-    results = run(args.steps)
-    costs = sensor_costs(max(100, args.steps // 4))
-    if args.json:
-        import json
-
-        envs = [
-            {
-                "environment": r.label,
-                "agents": r.agents,
-                "env_steps_per_s": r.env_steps_per_s,
-                "agent_steps_per_s": r.agent_steps_per_s,
-                "bare_space_step_per_s": r.bare_steps_per_s,
-            }
-            for r in results
-        ]
-        sensing = [{"setup": c.label, "us_per_agent_step": c.micros_per_agent_step} for c in costs]
-        print(json.dumps({"steps": args.steps, "environments": envs, "sensing": sensing}, indent=1))
-        return 0
-    print(format_table(results))
-    print()
-    print(format_costs(costs))
-    return 0
-
-
-def _bench_scale(args) -> int:
-    from flatland_ma import bench_scale
-
-    try:
-        worlds = tuple(int(n) for n in args.worlds.split(","))
-        if any(n < 1 for n in worlds):
-            raise ValueError
-    except ValueError:
-        print(f"flatland-ma bench: --worlds {args.worlds!r}: positive integers", file=sys.stderr)
-        return 2
-    results, training = bench_scale.run(worlds, args.seconds, not args.no_ppo)
-    if args.json:
-        import json
-
-        print(json.dumps(bench_scale.as_json(results, training), indent=1))
-    else:
-        print(bench_scale.format_table(results, training))
     return 0
 
 

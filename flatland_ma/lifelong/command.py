@@ -6,21 +6,32 @@ import json
 import sys
 from pathlib import Path
 
+from flatland_ma import options
+
 
 def add_parser(commands) -> None:
     lifelong = commands.add_parser(
         "lifelong",
         help="task streams: list them, or report a run's continual-learning metrics",
         description="report RUN_DIR: the average performance at the end of the stream, "
-        "forgetting, forward and backward transfer per method (mean and 95%% t-interval "
+        "forgetting, forward and backward transfer per method (mean and 95% t-interval "
         "over seeds), per task, and the task-by-time performance matrix (lifelong.png), "
         "from the evaluation blocks baselines/lifelong.py writes. list: the shipped streams.",
     )
     what = lifelong.add_subparsers(dest="lifelong", required=True)
     report = what.add_parser("report", help="metrics table, lifelong.json and lifelong.png")
-    report.add_argument("run_dir")
-    report.add_argument("--out", default=None, help="folder for the JSON and the plot")
-    report.add_argument("--no-plot", action="store_true")
+    report.add_argument(
+        "run_dir",
+        type=options.existing_folder,
+        help="the run folder baselines/lifelong.py wrote (a method's folder, or one above)",
+    )
+    report.add_argument(
+        "--out",
+        type=options.output_folder,
+        default=None,
+        help="folder for the JSON and the plot, made if missing (default: RUN_DIR)",
+    )
+    report.add_argument("--no-plot", action="store_true", help="write no lifelong.png")
     report.add_argument("--json", action="store_true", help="print the JSON, not the table")
     what.add_parser("list", help="the shipped streams")
 

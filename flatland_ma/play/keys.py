@@ -135,29 +135,68 @@ class Keys:
         return self.pressed | self.held
 
 
+SCRIPT_KEYS = frozenset(
+    [*BASE_DISCRETE.values(), *(k for pair in BASE_CONTINUOUS.values() for k in pair)]
+    + [*HEAD_KEYS, *GRIP_KEYS, *(k for pair in MORE_KEYS for k in pair), NEXT_AGENT, QUIT]
+)
+"""The keys a script may name: every key of the table, Tab and Esc (and ``wait``)."""
+MAX_SCRIPT_FRAMES = 1_000_000
+"""Frames a key script may last in all (over nine hours at 30 frames a second)."""
+MAX_SCRIPT_WORDS = 100_000
+
+
+def parse_script(script: str) -> list[tuple[frozenset[str], int]]:
+    """A key script as runs of (keys held together, frames held); ``ValueError`` naming
+    the word for a key not in ``SCRIPT_KEYS``, a count that is not a whole number from 1,
+    or a script longer than ``MAX_SCRIPT_FRAMES`` frames. Nothing is expanded."""
+    words = script.split(maxsplit=MAX_SCRIPT_WORDS)
+    if len(words) > MAX_SCRIPT_WORDS:
+        raise ValueError(f"key script: more than {MAX_SCRIPT_WORDS:,} words")
+    runs: list[tuple[frozenset[str], int]] = []
+    total = 0
+    for word in words:
+        keys, star, count = word.partition("*")
+        if star and not (count.isascii() and count.isdigit() and len(count) <= 12):
+            raise ValueError(f"key script: {word!r}: after * comes a number of frames")
+        n = int(count) if star else 1
+        if n < 1:
+            raise ValueError(f"key script: {word!r} holds keys for fewer than one frame")
+        names = frozenset() if keys == "wait" else frozenset(keys.split("+"))
+        unknown = sorted(k for k in names if k not in SCRIPT_KEYS)
+        if unknown or not keys:
+            raise ValueError(
+                f"key script: {word!r}: no key {', '.join(unknown) or keys!r}; keys: "
+                f"{', '.join(sorted(SCRIPT_KEYS))}, or wait"
+            )
+        total += n
+        if total > MAX_SCRIPT_FRAMES:
+            raise ValueError(
+                f"key script: {total:,} frames by {word!r}; at most {MAX_SCRIPT_FRAMES:,}"
+            )
+        runs.append((names, n))
+    return runs
+
+
 class ScriptedKeys:
     """Keys from a script instead of the keyboard, for demos and checks: words separated
     by spaces, each a key name, ``name*N`` (held for N frames) or ``a+b*N`` (held
-    together); ``wait*N`` is N frames with no key. After the last word: quit."""
+    together); ``wait*N`` is N frames with no key. After the last word: quit. The script
+    is checked whole first (``parse_script``) and played a frame at a time."""
 
     def __init__(self, script: str):
-        self.frames: list[Keys] = []
-        for word in script.split():
-            keys, _, count = word.partition("*")
-            n = int(count) if count else 1
-            if n < 1:
-                raise ValueError(f"key script: {word!r} holds keys for fewer than one frame")
-            names = frozenset() if keys == "wait" else frozenset(keys.split("+"))
-            self.frames.append(Keys(pressed=names, held=names))
-            self.frames += [Keys(held=names)] * (n - 1)
-        self._next = 0
+        self.runs = parse_script(script)
+        self._run, self._frame = 0, 0
 
     def poll(self, events: list) -> Keys:
         """The script's next frame (the window's events are not read)."""
-        if self._next >= len(self.frames):
+        if self._run >= len(self.runs):
             return Keys(quit=True)
-        self._next += 1
-        return self.frames[self._next - 1]
+        names, n = self.runs[self._run]
+        first = self._frame == 0
+        self._frame += 1
+        if self._frame == n:
+            self._run, self._frame = self._run + 1, 0
+        return Keys(pressed=names, held=names) if first else Keys(held=names)
 
 
 class PygameKeys:
