@@ -215,3 +215,23 @@ def test_touch_faults_are_located():
                 "fruits_poisons", agent={"sensors": [{"type": "touch", key: value}]}
             )
         assert str(info.value.problems[0]).startswith(f"<overrides>: agent.sensors[0].{key}:")
+
+
+@pytest.mark.parametrize("tiny", [5e-324, 1e-300, 0.5])
+def test_a_tiny_max_force_is_refused_where_it_is_written(tiny):
+    with pytest.raises(ScenarioError) as info:
+        flatland_ma.load_scenario(
+            "fruits_poisons", agent={"sensors": [{"type": "touch", "max_force": tiny}]}
+        )
+    (problem,) = info.value.problems
+    assert str(problem).startswith("<overrides>: agent.sensors[0].max_force:")
+    assert "greater than or equal to 1" in problem.message
+    with pytest.raises(ValueError, match="max_force must be finite and at least 1"):
+        Touch(max_force=tiny)
+
+
+def test_the_lightest_max_force_allowed_reads_a_push_as_one():
+    env = _touch_env({"max_force": 1.0})
+    _start(env, (285.0, 150.0, 0.0))
+    reading = _run(env, {"agent_0": env.action_index("forward")})["agent_0"]
+    _only(reading, 0, 1.0)

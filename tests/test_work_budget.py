@@ -4,15 +4,17 @@ the checks that made sparse arenas cost their area are local or constant-time.""
 
 import math
 
+import gymnasium
 import numpy as np
 import pytest
 
 import flatland_ma
 from flatland_ma.build import builder, capacity, scatter
 from flatland_ma.build.builder import lay_ground
-from flatland_ma.scenario import budget
+from flatland_ma.scenario import budget, sizes
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import load_scenario
+from flatland_ma.sensors import scent
 from flatland_ma.world import placement
 from flatland_ma.world.placement import Placer
 from tests.scenario_helpers import problems
@@ -280,3 +282,103 @@ def test_placer_counts_each_place_it_draws_against_the_budget():
     with pytest.raises(placement.OutOfBudget):
         placer.sample(np.random.default_rng(0), 5.0)
     assert reset.spent
+
+
+# -- sensors ----------------------------------------------------------------------------
+
+
+def _maps(n, size=256, **keys):
+    return [{"type": "topdown", "size": size, "name": f"map_{i}", **keys} for i in range(n)]
+
+
+SENSORS_OVER = [
+    # (overrides, key path reported, what is counted)
+    ({"n_agents": 64, "agent": {"sensors": _maps(16)}}, "agent.sensors[0]", "sensor memory"),
+    (
+        {
+            "n_agents": 64,
+            "teams": [
+                {"name": "small", "size": 2},
+                {"name": "big", "size": 62, "agent": {"sensors": _maps(16, channels=["rgb"])}},
+            ],
+            "agent": {"sensors": _maps(1, size=32)},
+        },
+        "teams[1].agent.sensors[0]",
+        "sensor memory",
+    ),
+    (
+        {
+            "n_agents": 64,
+            "agent": {
+                "sensors": [{"type": "camera", "rays": 4096}, {"type": "lidar", "rays": 4096}]
+            },
+        },
+        "agent.sensors[0]",
+        "rays cast each step",
+    ),
+    (
+        {
+            "arena": {"size": [10_000, 10_000]},
+            "agent": {
+                "sensors": [
+                    {"type": "smell", "cell": 1.0, "range": 100.0 + i, "name": f"s{i}"}
+                    for i in range(16)
+                ]
+            },
+        },
+        "agent.sensors[0]",
+        "sensor memory",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    "overrides, where, what", SENSORS_OVER, ids=["maps", "team", "rays", "scent"]
+)
+def test_sensors_over_the_budget_are_refused_where_they_are_written(overrides, where, what):
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("fruits_poisons", **overrides)
+    (problem,) = info.value.problems
+    assert str(problem).startswith(f"<overrides>: {where}: the scenario asks for ")
+    assert what in problem.message and "the work budget allows at most" in problem.message
+
+
+def test_large_sensors_within_the_budget_load():
+    load_scenario("fruits_poisons", n_agents=64, agent={"sensors": _maps(1)})
+    load_scenario("fruits_poisons", n_agents=64, agent={"camera": {"rays": 4096}})
+    # One scent field serves every agent that smells the same: counted once.
+    smell = {"type": "smell", "cell": 1.0}
+    load_scenario(
+        "fruits_poisons", n_agents=64, arena={"size": [10_000, 10_000]}, agent={"sensors": [smell]}
+    )
+
+
+@pytest.mark.parametrize("scenario", sorted(flatland_ma.list_scenarios()))
+def test_the_sizes_counted_are_the_spaces_built(scenario):
+    env = flatland_ma.parallel_env(scenario)
+    entries = sum(
+        gymnasium.spaces.utils.flatdim(env.observation_space(agent))
+        for agent in env.possible_agents
+    )
+    assert sizes.observation_bytes(env.spec) == 4 * entries
+    rays = sum(s.n_rays for agent in env._sensors for s in agent)
+    assert sizes.rays_per_step(env.spec) == rays
+
+
+def test_the_scent_grid_counted_is_the_one_smell_builds():
+    assert sizes.SCENT_CELLS == scent.MAX_CELLS
+
+
+def test_a_batch_is_held_to_the_budget_by_its_worlds_and_processes():
+    spec = load_scenario("fruits_poisons")
+    most = budget.max_worlds(spec)
+    assert 1_000 < most < 100_000  # a thousand worlds of a small scenario fit
+    budget.check_batch(spec, most)
+    with pytest.raises(ValueError, match=f"worlds=.* at most {most:,} for this scenario"):
+        budget.check_batch(spec, most + 1, "worlds")
+    fewer = budget.max_worlds(spec, processes=4)
+    assert fewer < most
+    with pytest.raises(ValueError, match="in 4 processes"):
+        budget.check_batch(spec, fewer + 1, processes=4)
+    heavy = load_scenario("fruits_poisons", agent={"sensors": _maps(16)})
+    assert budget.max_worlds(heavy) < most / 10  # sensor memory counts per world

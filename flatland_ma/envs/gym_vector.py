@@ -6,6 +6,9 @@
 (``flatland_ma.envs.vector``), or a ``ShardedParallelEnv`` over processes with
 ``shards=K``. It returns exactly what Gymnasium's ``SyncVectorEnv`` over the same envs
 returns, for the same seeds and actions, resetting worlds in Gymnasium's ``NEXT_STEP`` mode.
+``num_envs`` is held to the work budget before anything is allocated, and ``step`` takes
+one action per env (an array or a sequence of ``num_envs``), each in
+``single_action_space``: anything else is refused before any world moves.
 """
 
 from __future__ import annotations
@@ -36,9 +39,13 @@ class FlatlandVectorEnv(gymnasium.vector.VectorEnv):
     ):
         self.batch: Any
         if shards is None:
-            self.batch = BatchedParallelEnv(scenario, num_worlds=num_envs, **kwargs)
+            self.batch = BatchedParallelEnv(
+                scenario, num_worlds=num_envs, _counted_as="num_envs", **kwargs
+            )
         else:
-            self.batch = ShardedParallelEnv(scenario, num_envs, shards=shards, **kwargs)
+            self.batch = ShardedParallelEnv(
+                scenario, num_envs, shards=shards, _counted_as="num_envs", **kwargs
+            )
         if self.batch.agents_per_world != 1:
             raise ValueError(
                 f"scenario {scenario!r} has {self.batch.agents_per_world} agents; "

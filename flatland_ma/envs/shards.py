@@ -13,6 +13,11 @@ Every action is checked in this process before any shard moves, so a bad one rai
 batched env's error and changes nothing anywhere. If a shard's process dies, the next call
 raises ``RuntimeError`` naming it; ``close()`` stops them all.
 
+Its size (the worlds, and the processes) is held to the work budget before any process
+starts or any shared array is allocated (``flatland_ma.scenario.budget.check_batch``), and
+one thread at a time may call it: a second thread calling in meanwhile gets a
+``RuntimeError`` (two would take each other's answers from the pipes and wait for ever).
+
 The processes start the platform's default way unless ``context`` names one ("fork",
 "forkserver", "spawn"); with "spawn" or "forkserver" the script that makes the env needs
 Python's ``if __name__ == "__main__":`` guard.
@@ -27,7 +32,9 @@ from typing import Any
 import gymnasium
 import numpy as np
 
+from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
 from flatland_ma.envs.vector import AUTORESET_MODE, BatchedParallelEnv, _seeds
+from flatland_ma.scenario.budget import check_batch
 
 STARTUP_SECONDS = 300.0
 """How long a shard may take to build its worlds before the env gives up on it."""
@@ -74,13 +81,22 @@ class ShardedParallelEnv:
         max_cycles: int | None = None,
         copy: bool = True,
         context: str | None = None,
+        *,
+        _counted_as: str = "num_worlds",
         **overrides,
     ):
+        if isinstance(num_worlds, bool) or not isinstance(num_worlds, int) or num_worlds < 1:
+            raise ValueError(f"{_counted_as} must be a positive integer, not {num_worlds!r}")
+        if shards is not None and (
+            isinstance(shards, bool) or not isinstance(shards, int) or shards < 1
+        ):
+            raise ValueError(f"shards must be a positive integer, not {shards!r}")
+        self._guard = OneCaller("this sharded env")
+        self._pipes, self._processes = [], []
         # One world here, to check the arguments, learn the spaces and lay out the arrays.
         probe = BatchedParallelEnv(scenario, num_worlds=1, max_cycles=max_cycles, **overrides)
         shards = min(num_worlds, shards if shards is not None else os.cpu_count() or 1)
-        if isinstance(shards, bool) or not isinstance(shards, int) or shards < 1:
-            raise ValueError(f"shards must be a positive integer, not {shards!r}")
+        check_batch(probe.spec, num_worlds, _counted_as, processes=shards)
         self.spec = probe.spec
         self.num_worlds, self.num_shards, self.copy = num_worlds, shards, copy
         self.possible_agents = probe.possible_agents
@@ -117,7 +133,6 @@ class ShardedParallelEnv:
         self._slots = [slice(a * m, b * m) for a, b in self._worlds]
         self._acting = np.zeros(self.num_slots, bool)
         self._ready = False
-        self._pipes, self._processes = [], []
         try:
             for k, (first, last) in enumerate(self._worlds):
                 ours, theirs = processes.Pipe()
@@ -150,6 +165,10 @@ class ShardedParallelEnv:
 
     def reset(self, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``)."""
+        with self._guard:
+            return self._reset(seed)
+
+    def _reset(self, seed):
         seeds = _seeds(seed, self.num_worlds)
         for k, (first, last) in enumerate(self._worlds):
             self._send(k, ("reset", seeds[first:last]))
@@ -159,13 +178,14 @@ class ShardedParallelEnv:
 
     def step(self, actions):
         """One step of every world, as ``BatchedParallelEnv.step``."""
+        with self._guard:
+            return self._step(actions)
+
+    def _step(self, actions):
         if not self._ready:
             raise RuntimeError("call reset() first")
-        if len(actions) != self.num_slots:
-            raise ValueError(
-                f"expected one action per slot ({self.num_slots}: {self.num_worlds} worlds x "
-                f"{self.agents_per_world} agents), got {len(actions)}"
-            )
+        layout = f"{self.num_worlds} worlds x {self.agents_per_world} agents"
+        check_batch_of_actions(actions, self.num_slots, self.single_action_space, layout)
         target = self._arrays["actions"]
         if self._plainly_valid(actions):
             np.copyto(target, actions, casting="unsafe")
@@ -180,11 +200,12 @@ class ShardedParallelEnv:
 
     def state(self) -> np.ndarray:
         """Every world's global state, one row per world, as ``BatchedParallelEnv.state``."""
-        if not self._ready:
-            raise RuntimeError("call reset() before state()")
-        for k in range(self.num_shards):
-            self._send(k, ("state", None))
-        return np.concatenate([self._answer(k) for k in range(self.num_shards)])
+        with self._guard:
+            if not self._ready:
+                raise RuntimeError("call reset() before state()")
+            for k in range(self.num_shards):
+                self._send(k, ("state", None))
+            return np.concatenate([self._answer(k) for k in range(self.num_shards)])
 
     def close(self) -> None:
         for pipe in self._pipes:

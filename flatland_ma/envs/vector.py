@@ -17,6 +17,11 @@ Agents that finish while their world plays on leave it (as in the parallel env):
 next step their slot is inert, ``infos["active"]`` is False for it, its observation is
 zeros, its reward 0, and its action is not used; a learner drops those entries.
 
+Its size is held to the work budget before anything is allocated
+(``flatland_ma.scenario.budget.check_batch``: ``num_worlds`` times what a world of the
+scenario takes, sensors included), and one thread at a time may call it (a second thread
+calling in meanwhile gets a ``RuntimeError``; ``flatland_ma.envs.guards``).
+
 The arrays returned are copies, unless ``copy=False``: then they are the env's own buffers,
 overwritten by the next ``step`` or ``reset``.
 
@@ -26,15 +31,17 @@ of the compiled kernel, spread over numba's threads (``parallel=False``: on one)
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypeGuard
 
 import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
+from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
 from flatland_ma.envs.padding import Padding
 from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.scenario.budget import check_batch
 from flatland_ma.sensors.suite import WorldsKernel
 
 AUTORESET_MODE = AutoresetMode.NEXT_STEP
@@ -76,7 +83,9 @@ class BatchedParallelEnv:
     docstring). Every agent must have the same spaces (one shared policy), unless ``pad``:
     then agents that observe differently (but act alike) are given one padded observation
     space with their role in it (``flatland_ma.envs.padding``); ``padding`` is None when
-    nothing needed padding."""
+    nothing needed padding. ``num_worlds`` worlds must fit the work budget
+    (``flatland_ma.scenario.budget.check_batch``); ``_counted_as`` is the name the refusal
+    gives them (``num_envs`` for ``gymnasium.make_vec``)."""
 
     metadata = {"autoreset_mode": AUTORESET_MODE}
 
@@ -88,11 +97,15 @@ class BatchedParallelEnv:
         copy: bool = True,
         parallel: bool = True,
         pad: bool = False,
+        *,
+        _counted_as: str = "num_worlds",
         **overrides,
     ):
         if isinstance(num_worlds, bool) or not isinstance(num_worlds, int) or num_worlds < 1:
-            raise ValueError(f"num_worlds must be a positive integer, not {num_worlds!r}")
+            raise ValueError(f"{_counted_as} must be a positive integer, not {num_worlds!r}")
         first = FlatlandParallelEnv(scenario, max_cycles=max_cycles, **overrides)
+        check_batch(first.spec, num_worlds, _counted_as)  # before the other worlds are built
+        self._guard = OneCaller("this batched env")
         self.worlds = [first] + [_same(first) for _ in range(num_worlds - 1)]
         self.spec = first.spec
         self.num_worlds = num_worlds
@@ -146,6 +159,10 @@ class BatchedParallelEnv:
     def reset(self, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``; None: from
         fresh entropy)."""
+        with self._guard:
+            return self._reset(seed)
+
+    def _reset(self, seed):
         seeds = _seeds(seed, self.num_worlds)
         self._rewards[:] = 0.0
         self._terminations[:] = False
@@ -157,7 +174,13 @@ class BatchedParallelEnv:
     def step(self, actions):
         """One step of every world; ``actions[slot]`` for each slot (those of inert slots
         and of worlds being reset are not used). Every action is checked before anything
-        moves: a bad one raises an error naming its world, agent, value and space."""
+        moves: a bad one raises an error naming its world, agent, value and space (and
+        anything but one action per slot a ``TypeError`` or ``ValueError`` saying what a batch
+        takes)."""
+        with self._guard:
+            return self._step(actions)
+
+    def _step(self, actions):
         checked = self._check(actions)
         m = self.agents_per_world
         self._rewards[:] = 0.0
@@ -208,13 +231,19 @@ class BatchedParallelEnv:
         for centralised critics: slot ``s`` plays in world ``s // agents_per_world``. A
         world whose episode ended on the last step shows its final state until the next
         step resets it."""
-        if any(env.episode is None for env in self.worlds):
-            raise RuntimeError("call reset() before state()")
-        return np.stack([env.state() for env in self.worlds])
+        with self._guard:
+            if any(env.episode is None for env in self.worlds):
+                raise RuntimeError("call reset() before state()")
+            return np.stack([env.state() for env in self.worlds])
 
     def close(self) -> None:
         for env in self.worlds:
             env.close()
+
+    @property
+    def layout(self) -> str:
+        """Which slot is which, in words."""
+        return f"{self.num_worlds} worlds x {self.agents_per_world} agents"
 
     # -- inside -------------------------------------------------------------------------
 
@@ -240,11 +269,7 @@ class BatchedParallelEnv:
         """Each live agent's action, checked, world by world; nothing is changed."""
         if any(env.episode is None for env in self.worlds):
             raise RuntimeError("call reset() first")
-        if len(actions) != self.num_slots:
-            raise ValueError(
-                f"expected one action per slot ({self.num_slots}: {self.num_worlds} worlds x "
-                f"{self.agents_per_world} agents), got {len(actions)}"
-            )
+        check_batch_of_actions(actions, self.num_slots, self.single_action_space, self.layout)
         m = self.agents_per_world
         checked: list[list] = []
         for w, env in enumerate(self.worlds):
@@ -295,13 +320,24 @@ def _same(first: FlatlandParallelEnv) -> FlatlandParallelEnv:
 
 
 def _seeds(seed: int | list[int | None] | None, n: int) -> list[int | None]:
+    """Each world's seed, all checked before any world resets."""
     if seed is None:
         return [None] * n
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer | list | tuple):
+    if _whole(seed):
+        seeds: list = [int(seed) + w for w in range(n)]
+    elif isinstance(seed, list | tuple):
+        seeds = list(seed)
+        if len(seeds) != n:
+            raise ValueError(f"expected {n} seeds, one per world, got {len(seeds)}")
+    else:
         raise TypeError(f"seed must be an integer or a list of one per world, not {seed!r}")
-    if isinstance(seed, int | np.integer):
-        return [int(seed) + w for w in range(n)]
-    seeds = list(seed)
-    if len(seeds) != n:
-        raise ValueError(f"expected {n} seeds, one per world, got {len(seeds)}")
-    return seeds
+    for w, value in enumerate(seeds):
+        if value is not None and not (_whole(value) and value >= 0):
+            raise ValueError(
+                f"world {w}'s seed must be a non-negative integer or None, not {value!r}"
+            )
+    return [None if value is None else int(value) for value in seeds]
+
+
+def _whole(value) -> TypeGuard[int | np.integer]:
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)

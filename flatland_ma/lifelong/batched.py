@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from gymnasium.vector.utils import batch_space
 
+from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.lifelong.drift import Drift
 from flatland_ma.lifelong.envs import (
@@ -58,6 +59,7 @@ class StreamBatchedEnv:
 
     def __init__(self, stream: Any, num_worlds: int = 1, copy: bool = True):
         self.stream = load_stream(stream)
+        self._guard = OneCaller("this stream's batched env")
         self.num_worlds = num_worlds
         self.copy = copy
         self.segments = self.stream.segments()
@@ -111,6 +113,10 @@ class StreamBatchedEnv:
 
     def reset(self, seed: int | list | None = None, options: dict | None = None):
         """Start a life (see the module's docstring)."""
+        with self._guard:
+            return self._begin(seed)
+
+    def _begin(self, seed):
         self._life = np.random.default_rng(seed if isinstance(seed, int) else None)
         self.clock, self.segment, self._pending = 0, 0, False
         return self._start(seed)
@@ -129,9 +135,14 @@ class StreamBatchedEnv:
         return self._out(observations, rewards, flags, flags, infos)[0::4]
 
     def step(self, actions):
+        """One step of every world: one action per focal slot (as ``BatchedParallelEnv``)."""
+        with self._guard:
+            return self._step(actions)
+
+    def _step(self, actions):
+        layout = f"{self.num_worlds} worlds x {self.agents_per_world} focal agents"
+        check_batch_of_actions(actions, self.num_slots, self.single_action_space, layout)
         actions = np.asarray(actions)
-        if len(actions) != self.num_slots:
-            raise ValueError(f"expected one action per slot ({self.num_slots}), got {len(actions)}")
         if self._life is None:
             raise RuntimeError("call reset() first")
         if self._pending:  # every world starts the next task; the actions are not used
@@ -223,7 +234,8 @@ class StreamBatchedEnv:
     def state(self) -> np.ndarray:
         """Each world's global state in the task on, one row per world, padded with zeros
         to ``single_state_space``."""
-        return padded_state(self.env.state(), self.single_state_space.shape[0])
+        with self._guard:
+            return padded_state(self.env.state(), self.single_state_space.shape[0])
 
     def close(self) -> None:
         for env in self._envs.values():

@@ -6,6 +6,11 @@ before anything could say no. So the totals a file produces (after ``extends`` a
 overrides) are counted before anything is built, each against a limit well above what the
 shipped scenarios use, and a file over one is refused at the entry that adds the most.
 Within these limits any file loads and resets in seconds and a few hundred MB.
+
+Sensors count too: the memory every agent's sensors hold (observations, top-down maps,
+scent grids; ``flatland_ma.scenario.sizes``) and the rays cast each step. And a batch of
+worlds (``BatchedParallelEnv``, its shards, ``gymnasium.make_vec``) is held, before it
+allocates anything, to ``MAX_BATCH_BYTES`` over all its worlds (``check_batch``).
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from flatland_ma.scenario import sizes
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
 
 if TYPE_CHECKING:  # the schema imports this check
@@ -36,6 +42,26 @@ MAX_KEYS = 32
 """Locked doors, and the keys that open them (key item groups, key objects and switch
 zones): each is a gate or an opener in the reachability check, whose cost grows with their
 product (the shipped scenarios have at most 2)."""
+MAX_SENSOR_BYTES = 256 * 2**20
+"""Bytes every agent's sensors hold in one world, together (``sizes.sensor_bytes``): 64
+agents may each carry a 256 x 256 RGB top-down map, not sixteen of them. The largest
+shipped scenario holds about 3 MB."""
+MAX_RAYS = 262_144
+"""Rays cast in one world each step, every agent's cameras and lidars together: 64 agents
+with a camera of 4,096 rays (the shipped scenarios cast at most 512)."""
+MAX_BATCH_BYTES = 4 * 2**30
+"""What a batch of worlds (and its processes) may take in all, estimated before it is
+built (``batch_bytes``): at about 1 MB a world, some 4,000 worlds of a small scenario."""
+WORLD_BYTES = 1 * 2**20
+"""A world's own cost besides its shapes and sensors: its env, space, spaces and episode
+(a world of fruits_poisons takes about 0.8 MB once reset)."""
+SHAPE_BYTES = 8 * 1024
+"""A solid shape or an item: its pymunk body and shape, its entity and its packed rows."""
+PROCESS_BYTES = 256 * 2**20
+"""A shard's process: Python, numpy, numba and pymunk loaded, before its worlds."""
+BATCH_OBS_COPIES = 4
+"""Arrays of every slot's observation a batch holds: its buffer, the copy handed out, and
+its observation space's ``low`` and ``high``."""
 
 
 @dataclass
@@ -45,6 +71,8 @@ class _Total:
     what: str
     limit: int
     total: int = 0
+    unit: str = ""
+    """"bytes": shown in MB."""
     parts: dict[KeyPath, int] = field(default_factory=dict)
 
     def add(self, path: KeyPath, n: int) -> None:
@@ -55,18 +83,83 @@ class _Total:
         if self.total <= self.limit:
             return
         path, most = max(self.parts.items(), key=lambda kv: kv[1])
+        show = _megabytes if self.unit == "bytes" else "{:,}".format
         raise SpecError(
             path,
-            f"the scenario asks for {self.total:,} {self.what} ({most:,} from "
-            f"{format_path(path)}); the work budget allows at most {self.limit:,}, so that "
-            "every scenario loads and resets in seconds",
+            f"the scenario asks for {show(self.total)} {self.what} ({show(most)} from "
+            f"{format_path(path)}); the work budget allows at most {show(self.limit)}, so "
+            "that every scenario loads and resets in seconds",
         )
+
+
+def _megabytes(n: int) -> str:
+    return f"{n / 2**20:,.1f} MB" if n >= 2**20 else f"{n / 1024:,.1f} kB"
 
 
 def check_budget(spec: ScenarioSpec) -> None:
     """Raise ``SpecError`` at the entry adding most to a total that is over its limit."""
-    for total in (_cells(spec), _shapes(spec), _scattered(spec), _items(spec), _keys(spec)):
+    totals = (_cells(spec), _shapes(spec), _scattered(spec), _items(spec), _keys(spec))
+    for total in (*totals, *_sensors(spec)):
         total.check()
+
+
+def world_bytes(spec: ScenarioSpec) -> int:
+    """An estimate from above of the memory one world of ``spec`` takes once reset in a
+    batch: the world, its shapes and items, its sensors, and its slots' observations in
+    the batch's arrays."""
+    shapes = _shapes(spec).total + _items(spec).total
+    return (
+        WORLD_BYTES
+        + shapes * SHAPE_BYTES
+        + sizes.sensor_bytes(spec)
+        + BATCH_OBS_COPIES * sizes.observation_bytes(spec)
+    )
+
+
+def batch_bytes(spec: ScenarioSpec, worlds: int, processes: int = 0) -> int:
+    """An estimate of what ``worlds`` worlds of ``spec`` take, in ``processes`` shards."""
+    return worlds * world_bytes(spec) + processes * PROCESS_BYTES
+
+
+def max_worlds(spec: ScenarioSpec, processes: int = 0) -> int:
+    """The most worlds of ``spec`` a batch may hold (in ``processes`` shards)."""
+    return max(0, (MAX_BATCH_BYTES - processes * PROCESS_BYTES) // world_bytes(spec))
+
+
+def check_batch(spec: ScenarioSpec, worlds: object, name: str = "num_worlds", processes=0):
+    """Raise ``ValueError`` naming ``name`` unless ``worlds`` is a positive integer and that
+    many worlds of ``spec`` (in ``processes`` shards) fit the work budget; call it before
+    allocating anything."""
+    if isinstance(worlds, bool) or not isinstance(worlds, int) or worlds < 1:
+        raise ValueError(f"{name} must be a positive integer, not {worlds!r}")
+    total = batch_bytes(spec, worlds, processes)
+    if total <= MAX_BATCH_BYTES:
+        return
+    most = max_worlds(spec, processes)
+    shards = f" in {processes} processes" if processes else ""
+    raise ValueError(
+        f"{name}={worlds:,} worlds{shards} would take about {_megabytes(total)} (about "
+        f"{_megabytes(world_bytes(spec))} a world: its shapes, its sensors' "
+        f"{_megabytes(sizes.sensor_bytes(spec))} and its observations); the work budget "
+        f"allows a batch at most {_megabytes(MAX_BATCH_BYTES)}, so {name} may be at most "
+        f"{most:,} for this scenario"
+        + (f" with {processes} processes" if processes else "")
+        + ": use fewer worlds, smaller sensors, or several machines"
+    )
+
+
+def _sensors(spec: ScenarioSpec) -> tuple[_Total, _Total]:
+    memory = _Total(
+        "of sensor memory (observations, maps, scent grids, across agents)",
+        MAX_SENSOR_BYTES,
+        unit="bytes",
+    )
+    rays = _Total("rays cast each step (every agent's cameras and lidars)", MAX_RAYS)
+    for sensor in sizes.sensor_sizes(spec):
+        memory.add(sensor.path, sensor.memory)
+        if sensor.size.rays:
+            rays.add(sensor.path, sensor.size.rays * sensor.count)
+    return memory, rays
 
 
 def maze_size(spec: ScenarioSpec, cell: float) -> tuple[int, int]:

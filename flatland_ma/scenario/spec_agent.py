@@ -24,6 +24,8 @@ MAX_FORCE = 100_000.0
 """The strongest motor force and grasp allowed (the physics is tested at these limits)."""
 MAX_TORQUE = 1_000_000.0
 """The strongest motor torque allowed."""
+MIN_TOUCH_FORCE = 1.0
+"""The lightest force a touch sensor may be scaled to read 1 at."""
 MAX_RATE = 720.0
 """The fastest turn of a base, a head or a joint allowed, degrees per second."""
 
@@ -172,9 +174,10 @@ class TouchSpec(SensorBaseSpec):
     sectors: Annotated[int, Field(strict=True, ge=1, le=360)] = 8
     """Number of sectors around the base, each ``360 / sectors`` degrees wide."""
     max_force: Annotated[
-        float, Field(strict=True, gt=0, le=100 * MAX_FORCE, allow_inf_nan=False)
+        float, Field(strict=True, ge=MIN_TOUCH_FORCE, le=100 * MAX_FORCE, allow_inf_nan=False)
     ] = 20_000.0
-    """The force that reads 1 (stronger pushes read 1 too). An agent driving into
+    """The force that reads 1 (stronger pushes read 1 too), at least 1 (a lighter one reads
+    1 at the faintest touch, and a tiny one would divide by zero). An agent driving into
     something it cannot move pushes with its motor's ``max_force`` (15000 by default:
     0.75); a collision adds, for one step, its mass times its speed over the step's
     duration."""

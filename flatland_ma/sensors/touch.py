@@ -7,6 +7,7 @@ import math
 import numpy as np
 from gymnasium import spaces
 
+from flatland_ma.scenario.spec_agent import MIN_TOUCH_FORCE
 from flatland_ma.sensors.sensor import Sensor
 
 TAU = 2.0 * math.pi
@@ -43,6 +44,11 @@ class Touch(Sensor, kind="touch"):
         self.mount = "base"
         self.sectors = sectors
         self.max_force = float(max_force)
+        if not MIN_TOUCH_FORCE <= self.max_force < math.inf:
+            raise ValueError(
+                f"a touch sensor's max_force must be finite and at least {MIN_TOUCH_FORCE}, "
+                f"not {max_force!r}"
+            )
         self.labels = tuple(f"sector_{i}" for i in range(sectors)) + tuple(part_names)
         self.space = spaces.Box(0.0, 1.0, (len(self.labels),), np.float32)
         self._log = None
