@@ -64,8 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=options.policy,
         default="greedy",
         metavar="POLICY",
-        help="greedy, planner, carrier, sniffer, random, or the path of a checkpoint saved by "
-        "the baselines (e.g. runs/ppo/fruits_poisons/seed_0.pt) (default: greedy)",
+        help="greedy, planner, carrier, sniffer, random, or the path of a checkpoint file "
+        "saved by the baselines (default: greedy)",
     )
     record.add_argument(
         "--steps",

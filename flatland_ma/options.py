@@ -180,6 +180,11 @@ def existing_folder(text: str) -> Path:
     return path
 
 
+CHECKPOINT_SUFFIXES = (".safetensors", ".pt")
+"""A name with one of these is meant as a checkpoint file (``.pt``: the old format, which
+loading refuses with how to convert it)."""
+
+
 def policy(text: str) -> str:
     """A shipped policy's name or an existing checkpoint file (its contents are checked
     when it is loaded)."""
@@ -191,7 +196,7 @@ def policy(text: str) -> str:
     if path.is_file():
         return text
     shipped = ", ".join(SHIPPED)
-    if path.suffix == ".pt" or os.sep in text:
+    if path.suffix in CHECKPOINT_SUFFIXES or os.sep in text:
         raise argparse.ArgumentTypeError(
             f"checkpoint {text!r} is not a file (policies: {shipped}, or a checkpoint file)"
         )
