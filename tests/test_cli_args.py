@@ -251,3 +251,21 @@ def test_every_option_has_help_and_no_help_shows_doubled_percent_or_rst(capsys):
         assert "95%" in out and "95%%" not in out
     assert cli.main(["bench", "--help"]) == 0
     assert re.search(r"--steps STEPS\s+env steps timed per row", capsys.readouterr().out)
+
+
+def test_play_from_python_refuses_a_pace_or_a_count_that_cannot_end(monkeypatch):
+    import flatland_ma.envs.parallel as parallel
+    from flatland_ma.play import play
+
+    def no_world(*args, **kwargs):
+        raise AssertionError("a world was built")
+
+    monkeypatch.setattr(parallel, "FlatlandParallelEnv", no_world)
+    for fps in (float("nan"), float("inf"), -30.0, "30"):
+        with pytest.raises(ValueError, match="fps"):
+            play("fruits_poisons", fps=fps, script="up")  # type: ignore[arg-type]
+    for episodes in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="episodes"):
+            play("fruits_poisons", episodes=episodes, script="up")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="at most"):
+        play("fruits_poisons", script="up*999999999999")

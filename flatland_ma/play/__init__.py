@@ -9,6 +9,7 @@ window. Everything but the window is plain Python, so tests drive it headless
 
 from __future__ import annotations
 
+import math
 import os
 import secrets
 import sys
@@ -64,7 +65,13 @@ def play(
     """Play ``episodes`` episodes in a window; return the session (its ``finished`` rows
     are those appended to ``scores``). Keys come from the keyboard, or from ``script``
     (see ``ScriptedKeys``). ``seed``: the first episode's (drawn at random if None, and
-    written with the scores); ``screenshot``: a PNG of the window's last picture."""
+    written with the scores); ``screenshot``: a PNG of the window's last picture.
+    ``ValueError``, before any window opens, for a bad ``fps``, ``episodes`` or script."""
+    if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps >= 0):
+        raise ValueError(f"fps must be a finite number, 0 or more (0: no wait), not {fps!r}")
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be a whole number, 1 or more, not {episodes!r}")
+    source = ScriptedKeys(script) if script is not None else PygameKeys()
     from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.play.screen import Screen
     from flatland_ma.render.video import save_png
@@ -76,7 +83,6 @@ def play(
     session = Session(env, str(scenario), seed, others, episodes, path)
     screen = Screen(session)
     window = Window(screen.size, screen.title())
-    source = ScriptedKeys(script) if script is not None else PygameKeys()
     try:
         while True:
             if session.changed:
