@@ -19,6 +19,11 @@ test process that started it (and the kernel kills it, and any child, if its par
 dies: ``PR_SET_PDEATHSIG``). It runs single-threaded (BLAS threads off), so forking it is
 safe.
 
+A case can also be a command line (``flatland_ma.cli.main(argv)``, its output captured) or
+a Python snippet (API misuse), run in the case's own folder (``tests/isolated_calls.py``);
+the zygote imports what a request names in ``warm`` (torch, for checkpoints) once, before
+forking.
+
 Run this file to try a case by hand::
 
     python tests/isolated.py SCENARIO [OVERRIDES_AS_JSON]
@@ -29,6 +34,7 @@ from __future__ import annotations
 import atexit
 import ctypes
 import gc
+import importlib
 import json
 import math
 import os
@@ -78,6 +84,9 @@ KINDS = (
     "memory",  # MemoryError
     "timeout",  # killed after the wall-clock limit
     "crashed",  # died by a signal (SIGABRT from a C assertion, SIGSEGV) or exited early
+    "exited",  # a command line ran to its exit status (see exit_code, stderr)
+    "returned",  # a snippet ran to its end
+    "raised",  # a snippet raised (see raised_types, detail, problems)
 )
 
 
@@ -117,6 +126,17 @@ class Outcome:
     """The first reward not finite."""
     time_limit: float = TIME_LIMIT
     memory_limit_mb: float = MEMORY_BUDGET_MB
+    exit_code: int | None = None
+    """A command line's exit status (1 for an uncaught exception, as Python gives)."""
+    stdout: str = ""
+    stderr: str = ""
+    """What a command printed (long output keeps its head and its tail)."""
+    printed_traceback: bool = False
+    """A command printed a Python traceback (it let an exception escape)."""
+    internal_error: bool = False
+    """A command printed, or a snippet's exception said, "internal error"."""
+    raised_types: list[str] = field(default_factory=list)
+    """The names of the classes of a snippet's exception (its type first, then its bases)."""
 
     @property
     def messages(self) -> str:
@@ -152,7 +172,13 @@ class Outcome:
             faults = [fault for fault in (self.bad_observation, self.bad_reward) if fault]
             if faults:
                 head += f" ({'; '.join(faults)})"
+        if self.kind == "exited":
+            head += f"; exit status {self.exit_code}"
         lines = [head]
+        if self.stderr:
+            lines.append(f"stderr: {self.stderr}")
+        if self.stdout:
+            lines.append(f"stdout: {self.stdout}")
         if self.phase:
             lines.append(f"during {self.phase}")
         if self.detail:
@@ -197,13 +223,48 @@ class Runner:
             "steps": steps,
             "prelude": prelude,
         }
+        return self._ask(request)
+
+    def command(self, argv: list[str], folder: str | Path, prelude: str = "", **limits) -> Outcome:
+        """Run ``flatland-ma ARGV`` (``flatland_ma.cli.main``) in ``folder``, after the
+        Python ``prelude`` (to test this runner); the outcome is ``exited`` with its status
+        and output, unless the case hangs, dies or runs out of memory. ``limits``: see
+        ``call``."""
+        request = {"call": "command", "argv": [str(a) for a in argv], "prelude": prelude}
+        return self.call(request, folder, **limits)
+
+    def snippet(self, code: str, folder: str | Path, **limits) -> Outcome:
+        """Run Python ``code`` in ``folder`` (its globals: ``folder``, a ``Path``); the
+        outcome is ``returned`` or ``raised`` (with the exception's types and message)."""
+        return self.call({"call": "snippet", "code": code}, folder, **limits)
+
+    def call(
+        self,
+        request: dict,
+        folder: str | Path,
+        env: dict[str, str] | None = None,
+        warm: tuple[str, ...] = (),
+        time_limit: float = TIME_LIMIT,
+        memory_budget_mb: float = MEMORY_BUDGET_MB,
+    ) -> Outcome:
+        """Run a command or a snippet with ``folder`` as its working (and temporary)
+        folder and ``env`` added to its environment; ``warm``: modules the zygote imports
+        once, before this and every later fork (``torch``)."""
+        request = {**request, "cwd": str(folder), "env": env or {}, "warm": list(warm)}
+        request.update(time_limit=time_limit, memory_budget_mb=memory_budget_mb)
+        return self._ask(request)
+
+    def _ask(self, request: dict) -> Outcome:
+        # The zygote may first import what the case needs warm (torch: seconds, or more on a
+        # busy machine), then the case has its time limit.
+        wait = float(request["time_limit"]) + 30.0 + (300.0 if request.get("warm") else 0.0)
         line = json.dumps(request, allow_nan=True) + "\n"
         process = self._started()
         try:
             assert process.stdin is not None
             process.stdin.write(line.encode())
             process.stdin.flush()
-            answer = self._read_line(process, time_limit + 30.0)
+            answer = self._read_line(process, wait)
         except (OSError, ZygoteError):
             self.close()
             raise
@@ -279,8 +340,11 @@ def serve() -> None:
     gc.freeze()  # children then do not touch (and copy) the warm objects when collecting
     answers.write(json.dumps({"ready": True}) + "\n")
     answers.flush()
+    warmed: set[str] = set()
     for line in sys.stdin:
-        outcome = run_forked(json.loads(line))
+        request = json.loads(line)
+        _warm_modules(request.get("warm", ()), warmed)
+        outcome = run_forked(request)
         answers.write(json.dumps(outcome.__dict__, allow_nan=True) + "\n")
         answers.flush()
 
@@ -293,6 +357,21 @@ def _warm_up() -> None:
         env.reset(seed=0)
         for _ in range(3):
             env.step({a: env.action_space(a).sample() for a in env.agents})
+
+
+def _warm_modules(names, warmed: set[str]) -> None:
+    """Import the modules a request needs that this zygote has not imported yet, once, so
+    that its children start warm (a module that fails to import is left to the case)."""
+    todo = [name for name in names if name not in warmed]
+    for name in todo:
+        warmed.add(name)
+        try:
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 - the case will meet it again and report it
+            continue
+    if todo:
+        gc.collect()
+        gc.freeze()
 
 
 def run_forked(request: dict) -> Outcome:
@@ -317,6 +396,10 @@ def run_forked(request: dict) -> Outcome:
         waited = os.wait4(pid, 0)
     _, status, usage = waited
     wall = time.monotonic() - start
+    try:  # processes the case started and left behind (its group outlives it)
+        os.killpg(pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
     start_line, _, report = data.partition(b"\n")
     outcome = _judge(report, status, timed_out, time_limit)
     outcome.wall_s = wall
@@ -390,8 +473,13 @@ def _child(request: dict, write_end: int) -> None:
         _die_with_parent()
         _quiet()
         _limit(request)
-        exec(request["prelude"], {})
-        report = run_case(request)
+        if "call" in request:
+            from tests.isolated_calls import run_call
+
+            report = run_call(request)
+        else:
+            exec(request["prelude"], {})
+            report = run_case(request)
     except BaseException as err:  # noqa: BLE001 - anything at all is reported
         report = _exception_report("memory" if isinstance(err, MemoryError) else "crashed", err)
         code = 1
