@@ -142,9 +142,9 @@ def test_the_best_scripted_policy_scores_1_and_random_play_0(tmp_path):
 
 
 def test_a_focal_name_must_be_an_agent_or_a_team(tmp_path):
-    suite = load_suite(_tiny(tmp_path, TINY.replace("focal: [runner]", "focal: [pilot]")))
-    with pytest.raises(ValueError, match="no agent or team 'pilot'"):
-        run_suite(suite, "random")
+    path = _tiny(tmp_path, TINY.replace("focal: [runner]", "focal: [pilot]"))
+    with pytest.raises(ScenarioError, match=r"tiny.yaml:5: tasks\[0\]\.focal\[0\]: 'pilot' is no"):
+        load_suite(path)
 
 
 def test_the_command_scores_a_ppo_checkpoint_and_refuses_one_trained_with_the_partners(

@@ -72,7 +72,16 @@ def check_held_out(policy: str, suite: SuiteSpec) -> None:
         )
 
 
-def run_task(task: TaskSpec, policy: str, seed: int = 0, episodes: int | None = None) -> dict:
+def run_task(
+    task: TaskSpec,
+    policy: str,
+    seed: int = 0,
+    episodes: int | None = None,
+    fault: Callable[[tuple, str], Exception] | None = None,
+) -> dict:
+    """``policy`` scored on ``task``; a task whose scale cannot be set (its best scripted
+    policy scores no more than random play) is refused with ``fault(("scripted",), message)``:
+    the suite's fault at the task's key (file, line), when ``run_suite`` passes it."""
     env = flatland_ma.parallel_env(task.scenario, **task.overrides)
     focal = focal_agents(env, task.focal)
     label = f"{task.scenario} ({', '.join(task.focal)})"
@@ -97,7 +106,13 @@ def run_task(task: TaskSpec, policy: str, seed: int = 0, episodes: int | None = 
     best = max(means, key=lambda name: means[name])
     random_mean = float(np.mean([r for rs in random.values() for r in rs]))
     runs = [r for rs in tested.values() for r in rs]
-    scores = normalise(runs, random_mean, means[best]).tolist()
+    try:
+        scores = normalise(runs, random_mean, means[best]).tolist()
+    except ValueError as err:
+        message = f"task {label}: no scale to score on: {err}"
+        if fault is None:
+            raise ValueError(message) from None
+        raise fault(("scripted",), message) from None
     point, low, high = stratified_bootstrap([scores], seed=seed)
     return {
         "scenario": task.scenario,
@@ -132,7 +147,11 @@ def run_suite(
             progress(
                 f"task {t + 1}/{len(suite.tasks)}: {task.scenario} (focal {', '.join(task.focal)})"
             )
-        tasks.append(run_task(task, policy, seed, episodes))
+
+        def fault(path: tuple, message: str, t: int = t) -> Exception:
+            return suite.fault(("tasks", t, *path), message)
+
+        tasks.append(run_task(task, policy, seed, episodes, fault))
     scored = [t for t in tasks if "skipped" not in t]
     if not scored:
         raise ValueError(f"{policy} fits none of the suite's tasks: {tasks[0]['skipped']}")

@@ -14,18 +14,28 @@ A suite lives in ``scenarios/suites/NAME.yaml`` (``list_suites()``), or any file
 
 A policy is a shipped one's name (``flatland_ma.policies.named.SHIPPED``) or a
 checkpoint's path. Faults are reported with the file, line and key path, as scenario
-files' are.
+files' are, and every reference is resolved when the file loads, before any task plays:
+each task's scenario with its overrides (loaded and checked as the envs build it), its
+focal names (agents or teams, leaving background slots), and every policy (a shipped one
+made for each agent it drives; a checkpoint that is a regular file, made likewise).
 """
 
 from __future__ import annotations
 
+import os
 from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import Field, ValidationError, model_validator
+from pydantic import Field, PrivateAttr, ValidationError, model_validator
 
-from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError
+from flatland_ma.policies.references import (
+    check_policy,
+    check_policy_name,
+    focal_indices,
+    scenario_of,
+)
+from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError, locate
 from flatland_ma.scenario.loader import file_text
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.types import Spec
@@ -63,6 +73,8 @@ class SuiteSpec(Spec):
     """Partners reserved for training: no task may use them as background."""
     tasks: Annotated[tuple[TaskSpec, ...], Field(min_length=1, max_length=256)]
     """The tasks, each scored and reported on its own and aggregated."""
+    _origin: tuple[str, Marks] = PrivateAttr(default=("<suite>", {}))
+    """The file it was read from, and the line of every key path (for located faults)."""
 
     @model_validator(mode="after")
     def _held_out(self):
@@ -80,6 +92,11 @@ class SuiteSpec(Spec):
         """Every background policy of every task."""
         return {name for task in self.tasks for name in task.background}
 
+    def fault(self, path: tuple, message: str) -> ScenarioError:
+        """A fault at ``path`` of this suite, located in its file (file, line, key path)."""
+        source, marks = self._origin
+        return ScenarioError([locate(marks, path, message, source)])
+
 
 def suite_dir() -> Path:
     return Path(str(resources.files(SUITES))) / "suites"
@@ -92,17 +109,48 @@ def list_suites() -> list[str]:
 
 def load_suite(name: str | Path) -> SuiteSpec:
     """A shipped suite by name, or a suite file; ``ScenarioError`` (file, line, key path)
-    if it is not a valid suite."""
+    if it is not a valid suite or one of its references does not resolve (see the module's
+    docstring), or if the file is no regular file (``flatland_ma.scenario.files``)."""
     path = Path(name)
-    if not path.suffix:
+    if not path.suffix and not os.path.lexists(path):
         if str(name) not in list_suites():
             raise ValueError(f"no suite {str(name)!r}; suites: {', '.join(list_suites())}")
         path = suite_dir() / f"{name}.yaml"
-    if not path.is_file():
-        raise FileNotFoundError(f"no suite file {path}")
+    source = str(path)
     marks: Marks = {}
-    raw = parse_yaml(file_text(path), str(path), marks)
+    raw = parse_yaml(file_text(path), source, marks)
     try:
-        return SuiteSpec.model_validate(raw)
+        suite = SuiteSpec.model_validate(raw)
     except ValidationError as err:
-        raise ScenarioError(problems_from(err.errors(), SuiteSpec, raw, marks, str(path))) from None
+        raise ScenarioError(problems_from(err.errors(), SuiteSpec, raw, marks, source)) from None
+    suite._origin = (source, marks)
+    resolve(suite, path)
+    return suite
+
+
+def resolve(suite: SuiteSpec, file: Path | None = None) -> None:
+    """Resolve every reference of ``suite`` (its file is ``file``), task by task in order;
+    ``ScenarioError`` located at the first that does not resolve."""
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+
+    for k, name in enumerate(suite.training):
+        try:
+            check_policy_name(name, ("training", k))
+        except SpecError as err:
+            raise suite.fault(err.path, str(err)) from None
+    for t, task in enumerate(suite.tasks):
+        try:
+            scenario = scenario_of(task.scenario, task.overrides, file)
+            focal = focal_indices(scenario, task.focal, task.scenario)
+            env = FlatlandParallelEnv(scenario)
+            try:
+                mine = [env.possible_agents[i] for i in focal]
+                others = [a for a in env.possible_agents if a not in mine]
+                for b, policy in enumerate(task.background):
+                    check_policy(policy, env, others, ("background", b))
+                for k, policy in enumerate(task.scripted):
+                    check_policy(policy, env, mine, ("scripted", k))
+            finally:
+                env.close()
+        except SpecError as err:
+            raise suite.fault(("tasks", t, *err.path), str(err)) from None

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
@@ -44,6 +43,7 @@ def run(args) -> int:
             stream = load_stream(name)
             print(f"{name:<18} {', '.join(stream.task_labels)}: {stream.spec.description}")
         return 0
+    from flatland_ma.lifelong.metrics import summary_json
     from flatland_ma.lifelong.report import RunError, load_run, plot, summarise, table
 
     try:
@@ -54,8 +54,9 @@ def run(args) -> int:
         return 2
     out = Path(args.out or args.run_dir)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "lifelong.json").write_text(json.dumps(summary, indent=1))
-    print(json.dumps(summary, indent=1) if args.json else table(summary))
+    text = summary_json(summary)  # strict JSON: an undefined metric is null
+    (out / "lifelong.json").write_text(text + "\n")
+    print(text if args.json else table(summary))
     if not args.no_plot and data.learners:
         print(f"wrote {plot(data, summary, out / 'lifelong.png')}")
     return 0

@@ -21,10 +21,16 @@ the first and last agent-steps of task ``i``'s first segment, ``T`` the end of t
   when ``AUC_i^ref >= 1``;
 - backward transfer: ``BWT = 1/(N-1) sum_{i<N} (p_i(T) - p_i(end_i))`` over the tasks
   but the one trained last (Lopez-Paz and Ranzato 2017, GEM); negative is forgetting.
+
+In the JSON the report writes (``summary_json``), a metric that is undefined (NaN here),
+or an interval bound with one seed, is ``null``: the file is strict JSON (RFC 8259), which
+has no NaN, so any parser reads it.
 """
 
 from __future__ import annotations
 
+import json
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -118,3 +124,22 @@ def interval(values, confidence: float = 0.95) -> tuple[float, float, float]:
         return mean, float("nan"), float("nan")
     half = float(stats.t.ppf(0.5 + confidence / 2, len(x) - 1) * x.std(ddof=1) / np.sqrt(len(x)))
     return mean, mean - half, mean + half
+
+
+def strict(value):
+    """``value`` (nested dicts, lists and tuples of numbers and strings) ready for strict
+    JSON: every number that is not finite (an undefined metric is NaN) becomes None."""
+    if isinstance(value, dict):
+        return {str(k): strict(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [strict(v) for v in value]
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def summary_json(summary: dict) -> str:
+    """``summary`` as strict JSON text: no ``NaN`` or ``Infinity`` tokens (``null``)."""
+    return json.dumps(strict(summary), indent=1, allow_nan=False)

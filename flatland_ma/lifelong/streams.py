@@ -29,23 +29,53 @@ are; a task's scenario with its overrides is loaded and checked when the stream 
 
 from __future__ import annotations
 
+import math
+import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import Field, ValidationError, model_validator
+from pydantic import BeforeValidator, Field, ValidationError, model_validator
 
+from flatland_ma.policies.references import check_policy, focal_indices, scenario_of
 from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError, locate
 from flatland_ma.scenario.loader import file_text, list_streams, stream_dir
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.scenario.types import Spec
+from flatland_ma.scenario.types import MAX_REWARD, Spec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
 Label = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
 ScenarioName = Annotated[str, Field(strict=True, min_length=1, max_length=500)]
 MAX_STEPS = 10**9
 """The longest a task may last, in agent-steps."""
+MAX_TASKS = 256
+"""The most tasks a stream may list."""
+MAX_CYCLES = 1000
+"""The most times a stream may go through its list of tasks."""
+
+
+def _bounds(value: Any) -> tuple[float, float]:
+    """``value_bounds`` as written: two finite numbers, each a reward a scenario file could
+    give (so that their span, and every folded value, is a finite number)."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ValueError(f"expected [low, high], got {value!r}")
+    for bound in value:
+        if isinstance(bound, bool) or not isinstance(bound, (int, float)):
+            hint = ""
+            if isinstance(bound, str) and re.fullmatch(r"[-+]?[0-9]+[eE][-+]?[0-9]+", bound):
+                hint = " (YAML reads a number with an exponent but no dot as text: write 1.0e+3)"
+            raise ValueError(f"expected two numbers [low, high], got {bound!r}{hint}")
+        if not (math.isfinite(bound) and abs(bound) <= MAX_REWARD):
+            raise ValueError(
+                f"{bound!r}: each bound must be finite and within ±{MAX_REWARD:g}, "
+                "a reward a scenario could give"
+            )
+    return float(value[0]), float(value[1])
+
+
+Bounds = Annotated[tuple[float, float], BeforeValidator(_bounds)]
 
 
 class TaskSpec(Spec):
@@ -88,8 +118,9 @@ class DriftSpec(Spec):
 
     value_step: Annotated[float, Field(strict=True, ge=0, le=10, allow_inf_nan=False)] = 0.02
     """Standard deviation of each item group's reward's random walk, per step."""
-    value_bounds: tuple[float, float] = (-1.0, 1.0)
-    """The walk is reflected at these bounds."""
+    value_bounds: Bounds = (-1.0, 1.0)
+    """The walk is reflected at these bounds (finite, each within the scenario format's
+    largest reward, so that their span is a finite number)."""
     move: Annotated[float, Field(strict=True, ge=0, le=50, allow_inf_nan=False)] = 0.5
     """Standard deviation of each item's displacement per step, in world units (it stays
     where it is when the new place is not free)."""
@@ -115,10 +146,10 @@ class StreamSpec(Spec):
     """What the stream tests."""
     announce: Annotated[bool, Field(strict=True)] = False
     """Tell the learner which task is on: the observation gains a ``task`` entry (one-hot)."""
-    cycles: Annotated[int, Field(strict=True, ge=1, le=1000)] = 1
+    cycles: Annotated[int, Field(strict=True, ge=1, le=MAX_CYCLES)] = 1
     """The list of tasks, this many times over."""
     eval: EvalSpec = EvalSpec()
-    tasks: Annotated[tuple[TaskSpec, ...], Field(min_length=1, max_length=256)] | None = None
+    tasks: Annotated[tuple[TaskSpec, ...], Field(min_length=1, max_length=MAX_TASKS)] | None = None
     """The tasks, in order."""
     never_ending: NeverEndingSpec | None = None
     """Instead of tasks: the never-ending mode."""
@@ -200,16 +231,15 @@ class Stream:
 
 def load_stream(name: str | Path) -> Stream:
     """A shipped stream by name, or a stream file; ``ScenarioError`` (file, line, key
-    path) if it is not a valid stream, its scenarios included."""
+    path) if it is not a valid stream, its scenarios and background policies included, or
+    if the file is no regular file (``flatland_ma.scenario.files``)."""
     if isinstance(name, Stream):
         return name
     path = Path(name)
-    if not path.suffix:
+    if not path.suffix and not os.path.lexists(path):
         if str(name) not in list_streams():
             raise ValueError(f"no stream {str(name)!r}; streams: {', '.join(list_streams())}")
         path = stream_dir() / f"{name}.yaml"
-    if not path.is_file():
-        raise FileNotFoundError(f"no stream file {path}")
     source = str(path)
     marks: Marks = {}
     raw = parse_yaml(file_text(path), source, marks)
@@ -222,9 +252,7 @@ def load_stream(name: str | Path) -> Stream:
 
 def _checked(name: str, spec: StreamSpec, marks: Marks, source: str) -> Stream:
     """Each task's scenario loaded and checked, faults located at the task's keys; every
-    task's learner spaces equal."""
-    from flatland_ma.build.feasibility import check_scenario
-    from flatland_ma.scenario.loader import load_scenario
+    task's learner spaces equal; every background policy made for the agents it drives."""
 
     def fault(path: tuple, message: str) -> ScenarioError:
         return ScenarioError([locate(marks, path, message, source)])
@@ -237,45 +265,33 @@ def _checked(name: str, spec: StreamSpec, marks: Marks, source: str) -> Stream:
     scenarios, focal = [], []
     for key, task in entries:
         try:
-            scenario = load_scenario(task.scenario, **task.overrides)
-            check_scenario(scenario)
-        except (ScenarioError, ValueError, TypeError) as err:
-            where = "scenario" if not isinstance(err, ScenarioError) else "overrides"
-            first = str(err).splitlines()[0] if str(err) else type(err).__name__
-            raise fault((*key, where), f"{task.scenario}: {first}") from None
+            target = task_scenario_file(task.scenario, Path(source))
+            scenario = scenario_of(target, task.overrides, Path(source))
+            names = getattr(task, "focal", None)
+            n = scenario.n_agents
+            focal.append(
+                list(range(n)) if names is None else focal_indices(scenario, names, task.scenario)
+            )
+        except SpecError as err:
+            raise fault((*key, *err.path), str(err)) from None
         scenarios.append(scenario)
-        focal.append(_focal_indices(scenario, task, key, fault))
     stream = Stream(name, spec, scenarios, source, focal)
     _same_spaces(stream, entries, fault)
     return stream
 
 
-def _focal_indices(scenario: ScenarioSpec, task, key, fault) -> list[int]:
-    """The agents the learner drives: every one, or those ``task.focal`` names."""
-    names = [f"agent_{i}" for i in range(scenario.n_agents)]
-    focal = getattr(task, "focal", None)
-    if focal is None:
-        return list(range(scenario.n_agents))
-    teams = {team.name: team for team in scenario.teams}
-    out: list[int] = []
-    for f, name in enumerate(focal):
-        if name in names:
-            out.append(names.index(name))
-        elif name in teams:
-            first = sum(team.size for team in scenario.teams[: list(teams).index(name)])
-            out += range(first, first + teams[name].size)
-        else:
-            raise fault((*key, "focal", f), f"{name!r} is no agent or team of {task.scenario}")
-    if len(out) == scenario.n_agents:
-        raise fault((*key, "focal"), "every agent is focal: leave background for someone")
-    return sorted(set(out))
+def task_scenario_file(name: str, stream_file: Path) -> Path | str:
+    """The scenario a task names: the file beside the stream file when there is one by
+    that name (as ``extends`` reads a scenario's base), else the name as given."""
+    beside = stream_file.parent / name
+    return beside if name and os.path.lexists(beside) else name
 
 
 def _same_spaces(stream: Stream, entries, fault) -> None:
     from flatland_ma.envs.parallel import FlatlandParallelEnv
 
     first = None
-    for (key, _), scenario, focal in zip(entries, stream.scenarios, stream._focal):
+    for (key, task), scenario, focal in zip(entries, stream.scenarios, stream._focal):
         env = FlatlandParallelEnv(scenario)
         spaces = {
             (
@@ -284,7 +300,15 @@ def _same_spaces(stream: Stream, entries, fault) -> None:
             )
             for i in focal
         }
-        env.close()
+        try:
+            background = getattr(task, "background", None)
+            if background is not None:
+                others = [a for i, a in enumerate(env.possible_agents) if i not in focal]
+                check_policy(background, env, others, ("background",))
+        except SpecError as err:
+            raise fault((*key, *err.path), str(err)) from None
+        finally:
+            env.close()
         if len(spaces) > 1:
             raise fault(key, f"the learner's agents have different spaces here: {sorted(spaces)}")
         (space,) = spaces

@@ -9,6 +9,7 @@ with the file, the line and the key path it concerns.
 from __future__ import annotations
 
 import difflib
+import os
 from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
@@ -24,6 +25,7 @@ from flatland_ma.scenario.errors import (
     UnknownKeywordError,
     locate,
 )
+from flatland_ma.scenario.files import check_regular_file, read_text
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.overrides import OVERRIDES, plain_overrides
 from flatland_ma.scenario.schema import ScenarioSpec
@@ -69,6 +71,8 @@ def scenario_path(name: str | Path) -> Path:
     path = Path(name)
     if path.suffix in SCENARIO_SUFFIXES or path.is_file():
         if not path.is_file():
+            if os.path.lexists(path):  # a folder, a FIFO, a device, a loop of links...
+                check_regular_file(path)
             raise ValueError(f"scenario file {str(path)!r} does not exist")
         return path
     known = list_scenarios()
@@ -139,19 +143,10 @@ def check_keywords(overrides: Mapping, source: str) -> None:
 
 
 def file_text(path: Path) -> str:
-    """The text of a file of this package's formats (scenarios, suites, streams);
+    """The text of a file of this package's formats (scenarios, suites, streams), read
+    through ``files.read_text``: a regular file only, within the size limit, UTF-8;
     ``ScenarioError`` naming the file (and the line of a byte that is not UTF-8)."""
-    source = str(path)
-    try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise ScenarioError([Problem(source, None, (), f"cannot read the file: {err}")]) from None
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line = data.count(b"\n", 0, err.start) + 1
-        message = f"not UTF-8 text: {err.reason} (byte {data[err.start]:#04x})"
-        raise ScenarioError([Problem(source, line, (), message)]) from None
+    return read_text(path)
 
 
 def read_raw(name: str | Path, _chain: tuple[str, ...] = ()) -> tuple[dict, Marks]:
