@@ -29,7 +29,7 @@ def _place(env, positions):
 
 def _say(env, words):
     """Every live agent turns on the spot and says ``words[agent index]``."""
-    return {a: np.array([1, *words[int(a.split("_")[1])]]) for a in env.agents}
+    return {a: np.array([1, *words[env.possible_agents.index(a)]]) for a in env.agents}
 
 
 def _heard(row, vocabulary=3):
@@ -64,7 +64,7 @@ def test_teammates_only_hear_each_other_when_the_channel_is_for_teams():
     )
     env.reset(seed=1)
     observations, *_ = env.step(_say(env, [(1, 1)] * 4))
-    rows = observations["agent_0"]["messages"]
+    rows = observations["red_0"]["messages"]  # agents of teams are named by team
     assert rows[:2, 0].tolist() == [1, 1] and rows[2:, 0].tolist() == [0, 0]
     with pytest.raises(ScenarioError, match="channel.team"):
         flatland_ma.load_scenario("fruits_poisons_multi", channel={"team": True})
@@ -180,13 +180,13 @@ def test_signalling_scores_better_with_the_channel_than_without(scenario):
         env = flatland_ma.parallel_env(scenario, **overrides)
 
         def make(agent):
-            if agent == "agent_0":
+            if agent == "guide_0":
                 return Signaller(env, agent)
             return Follower(env, agent, seed=1)
 
         return evaluate(env, make, episodes=8)
 
     told, guessing = score(), score(channel=None)
-    assert all(info["agent_1"]["goal"] == 1 for info in told.infos)
+    assert all(info["seeker_0"]["goal"] == 1 for info in told.infos)
     assert told.mean > guessing.mean + 0.3
     assert min(told.returns) > min(guessing.returns) + 0.5

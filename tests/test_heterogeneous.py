@@ -51,20 +51,21 @@ def test_a_team_body_replaces_the_keys_it_gives_and_inherits_the_rest():
 def test_spaces_bodies_and_state_follow_each_agents_spec():
     env = flatland_ma.parallel_env("fruits_poisons", **SCOUT_AND_RUNNER)
     env.reset(seed=0)
-    assert env.observation_space("agent_0").shape == (24, 4)
-    assert env.observation_space("agent_2").shape == (16, 4)
-    assert str(env.action_space("agent_0")) == "Discrete(3)"
-    runner = env.action_space("agent_2")
+    assert env.possible_agents == ["scouts_0", "scouts_1", "runner_0"]  # named by team
+    assert env.observation_space("scouts_0").shape == (24, 4)
+    assert env.observation_space("runner_0").shape == (16, 4)
+    assert str(env.action_space("scouts_0")) == "Discrete(3)"
+    runner = env.action_space("runner_0")
     assert runner.shape == (3 + 1 + 1 + 1,)  # base, head, joint, grasper
     radii = [b.shapes[0].radius for b in env.episode.bodies]
     assert radii == [6, 6, 12]
     assert [len(b.joints) for b in env.episode.bodies] == [0, 0, 1]
     assert [b.head is not None for b in env.episode.bodies] == [False, False, True]
     # The state gives each agent's velocity as a fraction of its own top speed.
-    env.step({"agent_0": 0, "agent_1": 0, "agent_2": np.array([1, 0, 0, 0, 0, 0], np.float32)})
+    env.step({"scouts_0": 0, "scouts_1": 0, "runner_0": np.array([1, 0, 0, 0, 0, 0], np.float32)})
     labels = env.state_labels
     state = env.state()
-    runner_vx = state[labels.index("agent_2.vx")] * 150
+    runner_vx = state[labels.index("runner_0.vx")] * 150
     body = env.episode.bodies[2].body
     assert runner_vx == pytest.approx(body.velocity.x, rel=1e-5, abs=1e-3)
 
@@ -102,8 +103,8 @@ def test_the_roles_need_each_other(seed):
             goal = max(goal, max(info.get("goal", 0) for info in infos.values()))
         return goal
 
-    assert play(["agent_0"]) == 0 and play(["agent_1"]) == 0
-    assert play(["agent_0", "agent_1"]) == 1
+    assert play(["scout_0"]) == 0 and play(["runner_0"]) == 0
+    assert play(["scout_0", "runner_0"]) == 1
 
 
 def test_a_heterogeneous_scenario_passes_the_checker_and_pickles():
@@ -145,7 +146,7 @@ def test_the_work_budget_counts_each_teams_parts():
 
 
 def test_the_batched_env_refuses_agents_of_different_spaces_and_names_them():
-    with pytest.raises(ValueError, match=r"agent_1 observes Box.*\(32, 4\).*agent_0.*\(64, 4\)"):
+    with pytest.raises(ValueError, match=r"runner_0 observes Box.*\(32, 4\).*scout_0.*\(64, 4\)"):
         BatchedParallelEnv("plate_relay", num_worlds=2)
     # Bodies that differ but observe and act alike batch as one.
     alike = {"teams": [{"name": "a", "size": 2}, {"name": "b", "size": 2, "agent": {"radius": 8}}]}
@@ -162,9 +163,12 @@ def test_padding_puts_each_role_in_the_corner_of_one_space_with_its_role_named()
     assert set(space) == {"camera", "messages", "topdown", ROLE}
     assert space["topdown"].shape == (64, 64, 3) and space["camera"].shape == (64, 4)
     observations, _ = env.reset(seed=4)
-    guide, seeker = padding.pad(0, observations["agent_0"]), padding.pad(1, observations["agent_1"])
+    guide, seeker = (
+        padding.pad(0, observations["guide_0"]),
+        padding.pad(1, observations["seeker_0"]),
+    )
     assert padding.space.contains(guide) and padding.space.contains(seeker)
-    np.testing.assert_array_equal(guide["topdown"], observations["agent_0"]["topdown"])
+    np.testing.assert_array_equal(guide["topdown"], observations["guide_0"]["topdown"])
     assert not guide["camera"].any() and not seeker["topdown"].any()
     np.testing.assert_array_equal(guide[ROLE], [1, 0])
     np.testing.assert_array_equal(seeker[ROLE], [0, 1])
@@ -173,8 +177,8 @@ def test_padding_puts_each_role_in_the_corner_of_one_space_with_its_role_named()
     padding = Padding.of(relay)
     assert padding is not None and padding.space["observation"].shape == (64, 4)
     observations, _ = relay.reset(seed=0)
-    runner = padding.pad(1, observations["agent_1"])["observation"]
-    np.testing.assert_array_equal(runner[:32], observations["agent_1"])
+    runner = padding.pad(1, observations["runner_0"])["observation"]
+    np.testing.assert_array_equal(runner[:32], observations["runner_0"])
     assert not runner[32:].any()
     assert Padding.of(flatland_ma.parallel_env("fruits_poisons_multi")) is None
     with pytest.raises(ValueError, match="ranks"):
@@ -244,10 +248,10 @@ def test_supersuit_pads_them_to_one_space_for_parameter_sharing():
         supersuit.pad_observations_v0(flatland_ma.parallel_env("plate_relay"))
     )
     spaces = {str(env.observation_space(a)) for a in env.possible_agents}
-    assert len(spaces) == 1 and env.observation_space("agent_1").shape == (64, 4)
+    assert len(spaces) == 1 and env.observation_space("runner_0").shape == (64, 4)
     parallel_api_test(env, num_cycles=50)
     observations, _ = env.reset(seed=0)
-    assert not observations["agent_1"][32:].any()  # the runner's 32 rays, then zeros
+    assert not observations["runner_0"][32:].any()  # the runner's 32 rays, then zeros
 
 
 def test_scripted_policies_drive_the_agent_they_are_given():

@@ -49,8 +49,8 @@ def test_gymnasium_and_aec_envs_name_their_actions_too():
     with pytest.raises(KeyError, match="no action 'jump'"):
         env.action_index("jump")
     aec = flatland_ma.env("tug_of_war")  # through PettingZoo's wrappers
-    assert aec.action_names("agent_3") == flatland_ma.parallel_env("tug_of_war").action_names()
-    assert aec.action_index("head_left", "agent_3") == 4
+    assert aec.action_names("blue_1") == flatland_ma.parallel_env("tug_of_war").action_names()
+    assert aec.action_index("head_left", "blue_1") == 4
 
 
 def test_the_head_turns_within_its_limits_and_carries_the_camera():
@@ -175,14 +175,11 @@ def test_a_tug_from_another_agent_breaks_a_hold():
     hands = [bodies[0].hands[0], bodies[2].hands[0]]
     for _ in range(3):
         env.step(
-            {
-                a: grasp if a in ("agent_0", "agent_2") else env.action_index("stay")
-                for a in env.agents
-            }
+            {a: grasp if a in ("red_0", "blue_0") else env.action_index("stay") for a in env.agents}
         )
         env.step(
             {
-                a: forward if a in ("agent_0", "agent_2") else env.action_index("stay")
+                a: forward if a in ("red_0", "blue_0") else env.action_index("stay")
                 for a in env.agents
             }
         )
@@ -192,10 +189,7 @@ def test_a_tug_from_another_agent_breaks_a_hold():
     for t in range(60):
         step = left if t < 18 else forward
         env.step(
-            {
-                a: step if a in ("agent_0", "agent_2") else env.action_index("stay")
-                for a in env.agents
-            }
+            {a: step if a in ("red_0", "blue_0") else env.action_index("stay") for a in env.agents}
         )
         if any(h.held is None for h in hands):
             break
@@ -222,9 +216,9 @@ def test_deliveries_reward_the_zone_team_take_from_the_other_and_end():
     env.episode.world.space.reindex_shapes_for_body(ball.body)
     stay = env.action_index("stay")
     _, rewards, terminations, _, infos = env.step({a: stay for a in env.agents})
-    assert rewards == {"agent_0": 10.0, "agent_1": 10.0, "agent_2": -10.0, "agent_3": -10.0}
+    assert rewards == {"red_0": 10.0, "red_1": 10.0, "blue_0": -10.0, "blue_1": -10.0}
     assert all(terminations.values()) and env.agents == []
-    assert infos["agent_0"]["deliveries"] == 1 and infos["agent_2"]["deliveries"] == 0
+    assert infos["red_0"]["deliveries"] == 1 and infos["blue_0"]["deliveries"] == 0
 
 
 def test_a_delivered_object_goes_back_where_it_started_when_play_goes_on():

@@ -41,7 +41,7 @@ def test_a_head_turned_to_its_limits_reads_plus_and_minus_one():
 
     def hold(action, steps=60):
         for _ in range(steps):
-            env.step({a: (action if a == "agent_0" else stay) for a in agents})
+            env.step({a: (action if a == "red_0" else stay) for a in agents})
         return _feel(env)
 
     assert hold(env.action_index("head_left"))["joint_0"] == pytest.approx(1.0, abs=0.03)

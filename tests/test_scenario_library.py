@@ -97,10 +97,10 @@ SOLVERS = {
     "greedy": lambda env, agent: GreedyForager(env.spec, env.possible_agents.index(agent)),
     "carrier": CarrierPolicy,
     "sniffer": lambda env, agent: Sniffer(
-        env.spec, seed=int(agent.split("_")[1]), agent=env.possible_agents.index(agent)
+        env.spec, seed=env.possible_agents.index(agent), agent=env.possible_agents.index(agent)
     ),
     "signaller": Signaller,
-    "follower": lambda env, agent: Follower(env, agent, seed=int(agent.split("_")[1])),
+    "follower": lambda env, agent: Follower(env, agent, seed=env.possible_agents.index(agent)),
 }
 """The reference solvers by name: maker(env, agent)."""
 
@@ -112,7 +112,7 @@ def test_the_solver_beats_random_play_by_far(scenario):
     env = flatland_ma.parallel_env(scenario)
 
     def random(agent):
-        return RandomPolicy(env.action_space(agent), seed=int(agent.split("_")[1]))
+        return RandomPolicy(env.action_space(agent), seed=env.possible_agents.index(agent))
 
     if reference.solver == "carrier_vs_random":
         solved = first_team_return(env, lambda a: CarrierPolicy(env, a), random, episodes)
@@ -180,7 +180,7 @@ def test_random_play_almost_never_solves_a_part_task_and_the_carrier_nearly_alwa
     assert all({"deliveries", "goal"} & set(info) for info in env.reset(seed=0)[1].values())
 
     def random(agent):
-        return RandomPolicy(env.action_space(agent), seed=int(agent.split("_")[1]))
+        return RandomPolicy(env.action_space(agent), seed=env.possible_agents.index(agent))
 
     anyone, _ = successes(env, random, random, RANDOM_EPISODES)
     assert anyone <= 1, f"random play succeeded in {anyone} of {RANDOM_EPISODES} episodes"

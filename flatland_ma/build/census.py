@@ -33,6 +33,7 @@ def world_state(spec: ScenarioSpec) -> WorldState:
         [a.max_turn_rate for a in agents],
         spec.channel.tokens if spec.channel else 0,
         spec.channel.vocabulary if spec.channel else 2,
+        spec.agent_names,
     )
 
 

@@ -18,6 +18,10 @@ class FlatlandGymEnv(gymnasium.Env):
     registered with that limit as its ``max_episode_steps`` and with ``time_limit=False``:
     ``gymnasium.make``'s ``TimeLimit`` wrapper is then the one that truncates, after
     ``max_episode_steps`` steps, longer or shorter than the scenario's.
+
+    ``flatten=True`` (also ``gymnasium.make(id, flatten=True)``) gives one float32 vector
+    per observation (``flatland_ma.envs.flatten``; ``unflatten(vector)`` gives the parts).
+    ``metadata["render_modes"]`` lists ``human`` only where pygame can be imported.
     """
 
     metadata = {"render_modes": RENDER_MODES, "render_fps": 30}
@@ -27,6 +31,7 @@ class FlatlandGymEnv(gymnasium.Env):
         scenario="fruits_poisons",
         render_mode: str | None = None,
         time_limit: bool = True,
+        flatten: bool = False,
         **overrides,
     ):
         if not time_limit and _sets_episode_length(overrides):
@@ -34,7 +39,9 @@ class FlatlandGymEnv(gymnasium.Env):
                 "with time_limit=False (as gymnasium.make builds it) a wrapper truncates: "
                 "set the episode length with gymnasium.make(..., max_episode_steps=N)"
             )
-        self.parallel_env = FlatlandParallelEnv(scenario, render_mode=render_mode, **overrides)
+        self.parallel_env = FlatlandParallelEnv(
+            scenario, render_mode=render_mode, flatten=flatten, **overrides
+        )
         if not time_limit:
             self.parallel_env.step_limit = None
         if self.parallel_env.spec.n_agents != 1:
@@ -56,6 +63,10 @@ class FlatlandGymEnv(gymnasium.Env):
         """The discrete action (or continuous entry) called ``name``, e.g. ``"grasp"``."""
         return self.parallel_env.action_index(name, self.agent)
 
+    def unflatten(self, vector):
+        """With ``flatten=True``: the observation ``vector`` as the env gives it without."""
+        return self.parallel_env.unflatten(self.agent, vector)
+
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         observations, infos = self.parallel_env.reset(seed=seed, options=options)
         self._np_random = self.parallel_env.np_random
@@ -72,7 +83,7 @@ class FlatlandGymEnv(gymnasium.Env):
             _, rewards, terminated, truncated = par._advance([checked])
             episode = par.running
             return (
-                episode.sensors.observation(0),
+                par._observe(0),
                 rewards[0],
                 terminated[0],
                 truncated,

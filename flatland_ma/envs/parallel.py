@@ -1,6 +1,8 @@
 """The PettingZoo parallel environment: the one step loop every interface runs on.
 
-Agents are ``agent_0 ... agent_{n-1}``. Each observes its own first-person camera: a
+Agents are ``agent_0 ... agent_{n-1}``; in a scenario with teams they are named by team,
+numbered within it (``scout_0``, ``runner_0``: ``spec.agent_names``), since clients group
+agents by the name's prefix. Each observes its own first-person camera: a
 float32 array of shape ``(rays, 4)`` (RGB times intensity, and depth), and acts through
 ``Discrete(3)`` (forward, rotate left, rotate right) or ``Box(-1, 1, (3,))`` (longitudinal,
 lateral, angular), as the scenario says; a head and arms add their own actions
@@ -10,6 +12,15 @@ truncates every agent. ``infos[agent]`` holds the agent's episode counters: ``sc
 one count per item group (e.g. ``fruits``, ``poisons``). Keyword overrides are merged into
 the scenario file; one that is no top-level key of a scenario raises ``TypeError``.
 
+``flatten=True`` gives every agent one float32 vector in a ``Box`` instead of its sensors'
+``Dict`` or 2-D ``Box`` (``flatland_ma.envs.flatten`` documents the layout;
+``flat_layout(agent)`` lists the parts, ``unflatten(agent, vector)`` gives them back).
+
+Each step takes one action per live agent. An action for an agent that has finished
+(terminated or truncated, and so no longer in ``agents``) is ignored, as PettingZoo's
+conversions do, so clients that send an action for every possible agent need no filter;
+a name that is no agent of the env raises ``ValueError``, as does a missing or bad action.
+
 Pickling keeps the scenario, the generator state at the last reset and the actions taken
 since; unpickling rebuilds the episode and replays them, so a copy continues exactly as
 the original would (pymunk's own pickles lose cached contact impulses and drift).
@@ -17,6 +28,7 @@ the original would (pymunk's own pickles lose cached contact impulses and drift)
 
 from __future__ import annotations
 
+import importlib.util
 import threading
 from collections.abc import Mapping
 from pathlib import Path
@@ -31,16 +43,33 @@ from flatland_ma.build.bodies import make_parts, make_sensors
 from flatland_ma.build.builder import Episode, build
 from flatland_ma.build.census import state_entities, world_state
 from flatland_ma.build.feasibility import check_scenario
+from flatland_ma.envs.flatten import FlatLayout, FlatPart
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.suite import observation_space
 
-RENDER_MODES = ["human", "rgb_array"]
+
+def available_render_modes() -> list[str]:
+    """The render modes this install can do: ``rgb_array`` always, ``human`` when pygame
+    can be imported (``pip install "flatland-ma[render]"``)."""
+    try:
+        pygame = importlib.util.find_spec("pygame")
+    except (ImportError, ValueError):  # pygame set to None in sys.modules, or half-installed
+        pygame = None
+    return (["human"] if pygame is not None else []) + ["rgb_array"]
+
+
+KNOWN_RENDER_MODES = ("human", "rgb_array")
+"""The render modes the code has. An env accepts each (PettingZoo's ``render_test``
+builds one with ``human`` only to read its metadata); without pygame, ``render()`` in
+``human`` mode raises ``ImportError`` naming the extra to install."""
+RENDER_MODES = available_render_modes()
+"""The render modes of every env of this install (``metadata["render_modes"]``)."""
 
 
 class FlatlandParallelEnv(ParallelEnv):
     metadata = {
-        "name": "flatland_ma_v0",
+        "name": "flatland_ma_v1",
         "render_modes": RENDER_MODES,
         "render_fps": 30,
         "is_parallelizable": True,
@@ -51,6 +80,7 @@ class FlatlandParallelEnv(ParallelEnv):
         scenario: str | Path | ScenarioSpec = "fruits_poisons",
         render_mode: str | None = None,
         max_cycles: int | None = None,
+        flatten: bool = False,
         **overrides,
     ):
         if max_cycles is not None:
@@ -62,15 +92,19 @@ class FlatlandParallelEnv(ParallelEnv):
         else:
             spec = load_scenario(scenario, **overrides)
         check_scenario(spec)
-        self._setup(spec, render_mode)
+        self._setup(spec, render_mode, flatten)
 
-    def _setup(self, spec: ScenarioSpec, render_mode: str | None) -> None:
+    def _setup(self, spec: ScenarioSpec, render_mode: str | None, flatten: bool = False) -> None:
         """Everything but the checks of the scenario (a copy being unpickled skips them)."""
-        if render_mode is not None and render_mode not in RENDER_MODES:
+        if render_mode is not None and render_mode not in KNOWN_RENDER_MODES:
             raise ValueError(f"render_mode {render_mode!r} is not one of {RENDER_MODES}")
+        if not isinstance(flatten, bool):
+            raise TypeError(f"flatten must be True or False, not {flatten!r}")
         self.spec = spec
         self.render_mode = render_mode
-        self.possible_agents = [f"agent_{i}" for i in range(spec.n_agents)]
+        self.flatten = flatten
+        """Whether observations are flat float32 vectors (see the module's docstring)."""
+        self.possible_agents = list(spec.agent_names)
         self.agents: list[str] = []
         self._index = {name: i for i, name in enumerate(self.possible_agents)}
         words, vocabulary = (
@@ -87,6 +121,12 @@ class FlatlandParallelEnv(ParallelEnv):
         self.observation_spaces = {
             a: observation_space(own) for a, own in zip(self.possible_agents, self._sensors)
         }
+        self._layouts: list[FlatLayout] | None = None
+        if flatten:
+            self._layouts = [FlatLayout(self.observation_spaces[a]) for a in self.possible_agents]
+            self.observation_spaces = {
+                a: layout.space for a, layout in zip(self.possible_agents, self._layouts)
+            }
         self._world_state = world_state(spec)
         self.state_space = self._world_state.space
         """The global state's space: see ``state()``."""
@@ -112,13 +152,44 @@ class FlatlandParallelEnv(ParallelEnv):
     def action_space(self, agent: str) -> gymnasium.Space:
         return self.action_spaces[agent]
 
-    def action_names(self, agent: str = "agent_0") -> tuple[str, ...]:
-        """What each discrete action or each continuous entry means, in order."""
-        return self._actuators[self._index[agent]].names
+    def action_names(self, agent: str | None = None) -> tuple[str, ...]:
+        """What each discrete action or each continuous entry means, in order (of the
+        first agent, unless ``agent`` says whose)."""
+        return self._actuators[self._agent_index(agent)].names
 
-    def action_index(self, name: str, agent: str = "agent_0") -> int:
-        """The discrete action (or continuous entry) called ``name``, e.g. ``"grasp"``."""
-        return self._actuators[self._index[agent]].index(name)
+    def action_index(self, name: str, agent: str | None = None) -> int:
+        """The discrete action (or continuous entry) called ``name``, e.g. ``"grasp"`` (of
+        the first agent, unless ``agent`` says whose)."""
+        return self._actuators[self._agent_index(agent)].index(name)
+
+    def flat_layout(self, agent: str) -> tuple[FlatPart, ...]:
+        """With ``flatten=True``: where each entry of the agent's observation lies in its
+        flat vector (name, start, stop, shape; ``flatland_ma.envs.flatten``)."""
+        return self._layout(agent).parts
+
+    def unflatten(self, agent: str, vector) -> np.ndarray | dict[str, np.ndarray]:
+        """With ``flatten=True``: the agent's observation ``vector`` as the env gives it
+        without flattening (a ``Dict``'s entries, or the 2-D ``Box``)."""
+        return self._layout(agent).unflatten(vector)
+
+    def _layout(self, agent: str) -> FlatLayout:
+        if self._layouts is None:
+            raise ValueError("observations are flat only with flatten=True")
+        return self._layouts[self._agent_index(agent)]
+
+    def _agent_index(self, agent: str | None) -> int:
+        if agent is None:
+            return 0
+        if agent not in self._index:
+            raise KeyError(f"no agent {agent!r}; agents: {self.possible_agents}")
+        return self._index[agent]
+
+    def _observe(self, i: int):
+        """Agent ``i``'s (its index) current observation, flat with ``flatten=True``."""
+        observation = self.running.sensors.observation(i)
+        if self._layouts is None:
+            return observation
+        return self._layouts[i].flatten(observation)
 
     @property
     def running(self) -> Episode:
@@ -167,16 +238,16 @@ class FlatlandParallelEnv(ParallelEnv):
             self._np_random, self._np_random_seed = seeding.np_random(seed)
         self._reset_state = self.np_random.bit_generator.state
         self._start_episode()
-        sensors, task = self.running.sensors, self.running.task
-        observations = {a: sensors.observation(i) for i, a in enumerate(self.possible_agents)}
+        task = self.running.task
+        observations = {a: self._observe(i) for i, a in enumerate(self.possible_agents)}
         infos = {a: task.info(i) for i, a in enumerate(self.possible_agents)}
         return observations, infos
 
     def _step(self, actions: Mapping):
         checked = self._check(actions)
         live, rewards, terminated, truncated = self._advance(checked)
-        sensors, task, names = self.running.sensors, self.running.task, self.possible_agents
-        observations = {names[i]: sensors.observation(i) for i in live}
+        task, names = self.running.task, self.possible_agents
+        observations = {names[i]: self._observe(i) for i in live}
         reward_d = {names[i]: rewards[i] for i in live}
         terminated_d = {names[i]: terminated[i] for i in live}
         truncated_d = {names[i]: truncated for i in live}
@@ -193,15 +264,17 @@ class FlatlandParallelEnv(ParallelEnv):
         self._log = []
 
     def _check(self, actions: Mapping) -> list:
-        """Every live agent's action, validated, in agent order; nothing is changed."""
+        """Every live agent's action, validated, in agent order; nothing is changed.
+        Actions for agents that have finished are ignored; other names raise."""
         if not self.agents:
             raise RuntimeError("no live agents: the episode is over, call reset()")
         if not isinstance(actions, Mapping):
             raise TypeError(f"actions must be a dict from agent name to action, not {actions!r}")
         for name in actions:
-            if name not in self._index or self._index[name] not in self._live:
+            if not isinstance(name, str) or name not in self._index:
                 raise ValueError(
-                    f"action {actions[name]!r} given for {name!r}, which is not a live agent; "
+                    f"action {actions[name]!r} given for {name!r}, which is not a live agent "
+                    f"(nor a finished one); "
                     f"expected one action for each live agent {self.agents}, "
                     f"in {self._spaces_text(self.agents)}"
                 )
@@ -290,7 +363,8 @@ class FlatlandParallelEnv(ParallelEnv):
 
     @property
     def state_labels(self) -> tuple[str, ...]:
-        """The name of each entry of ``state()``, e.g. ``agent_0.x``, ``fruits[2].present``."""
+        """The name of each entry of ``state()``, e.g. ``agent_0.x`` (``scout_0.x`` in a
+        scenario with teams), ``fruits[2].present``."""
         return self._world_state.labels
 
     # -- rendering ----------------------------------------------------------------------
@@ -326,6 +400,7 @@ class FlatlandParallelEnv(ParallelEnv):
         return {
             "spec": self.spec,
             "render_mode": self.render_mode,
+            "flatten": self.flatten,
             "seed": self._np_random_seed,
             "reset_state": self._reset_state,
             "rng_state": None if self._np_random is None else self._np_random.bit_generator.state,
@@ -334,7 +409,7 @@ class FlatlandParallelEnv(ParallelEnv):
         }
 
     def __setstate__(self, state: dict) -> None:
-        self._setup(state["spec"], state["render_mode"])
+        self._setup(state["spec"], state["render_mode"], state.get("flatten", False))
         self.step_limit = state["step_limit"]
         if state["rng_state"] is None:
             return

@@ -119,7 +119,8 @@ class ScenarioSpec(Spec):
     description: Annotated[str, Field(strict=True, max_length=200)] = ""
     """One line shown by ``flatland-ma list``."""
     n_agents: Annotated[int, Field(strict=True, ge=1, le=64)] = 1
-    """How many agents share the world (named agent_0, agent_1, ...)."""
+    """How many agents share the world (named agent_0, agent_1, ..., or by team: see
+    ``agent_names``)."""
     episode: EpisodeSpec = EpisodeSpec()
     """Episode length and how episodes end."""
     physics: PhysicsSpec = PhysicsSpec()
@@ -204,6 +205,15 @@ class ScenarioSpec(Spec):
                 return team
             first += team.size
         return None
+
+    @property
+    def agent_names(self) -> tuple[str, ...]:
+        """Every agent's name, in agent order: ``agent_0, agent_1, ...``; with teams, by
+        team, numbered within it (``scout_0, runner_0, runner_1``), as clients group
+        agents by the name's prefix."""
+        if not self.teams:
+            return tuple(f"agent_{i}" for i in range(self.n_agents))
+        return tuple(f"{team.name}_{k}" for team in self.teams for k in range(team.size))
 
     def agent_of(self, agent_index: int) -> AgentSpec:
         """The body, sensors and actions of an agent: its team's ``agent``, else ``agent``."""

@@ -16,7 +16,8 @@ headings as cosine and sine, velocities as fractions of the agents' top speeds, 
 - with a channel, per agent and word, ``say_<j>``: what it said on the last step, as
   ``(word + 1) / vocabulary`` (0 for silence).
 
-``WorldState.labels`` names every entry, e.g. ``agent_1.vx`` or ``fruits[3].present``.
+``WorldState.labels`` names every entry by the agents' names, e.g. ``agent_1.vx`` (or
+``runner_0.vx`` in a scenario with teams) or ``fruits[3].present``.
 """
 
 from __future__ import annotations
@@ -56,18 +57,22 @@ class WorldState:
         turn_rates: list[float],
         words: int = 0,
         vocabulary: int = 2,
+        names: tuple[str, ...] | None = None,
     ):
         """``speeds`` and ``turn_rates`` (degrees per second): each agent's top speeds,
-        which its velocities are given as fractions of."""
+        which its velocities are given as fractions of; ``names``: the agents' names in
+        the labels (default ``agent_0, agent_1, ...``)."""
         self.size, self.counts = size, counts
         self.speeds = list(speeds)
         self.turn_rates = [math.radians(rate) for rate in turn_rates]
-        labels = [f"agent_{i}.{f}" for i in range(counts.agents) for f in AGENT_FIELDS]
+        if names is None:
+            names = tuple(f"agent_{i}" for i in range(counts.agents))
+        labels = [f"{name}.{f}" for name in names for f in AGENT_FIELDS]
         for name, n in counts.items:
             labels += [f"{name}[{k}].{f}" for k in range(n) for f in ITEM_FIELDS]
         labels += [f"object[{k}].{f}" for k in range(counts.objects) for f in OBJECT_FIELDS]
         labels += [f"door[{k}].{f}" for k in range(counts.doors) for f in DOOR_FIELDS]
-        labels += [f"agent_{i}.say_{j}" for i in range(counts.agents) for j in range(words)]
+        labels += [f"{name}.say_{j}" for name in names for j in range(words)]
         self.words, self.vocabulary = words, vocabulary
         self.labels = tuple(labels)
         signed = np.array([label.rsplit(".", 1)[1] in _SIGNED for label in labels], bool)

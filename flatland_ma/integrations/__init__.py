@@ -1,0 +1,8 @@
+"""Adapters and wrappers for clients that lack a door of their own.
+
+Each module imports its client (if it needs one) only when used; nothing in the layers
+below imports this package.
+
+- ``discrete``: ``DiscreteActions``, one ``Discrete`` action per agent for scenarios with
+  a channel (moves x words), for clients that take only ``Discrete`` or ``Box`` actions.
+"""
