@@ -39,7 +39,7 @@ def test_parallel_env_continues_identically_after_unpickling(scenario, actions):
         if actions == "discrete":
             step = {a: int(rng.integers(env.action_space(a).n)) for a in env.agents}
         else:
-            shape = env.action_space("agent_0").shape
+            shape = env.action_space(env.possible_agents[0]).shape
             step = {a: rng.uniform(-1, 1, shape).astype(np.float32) for a in env.agents}
         _same(env.step(step), copy.step(step))
     assert copy.agents == []
