@@ -115,8 +115,8 @@ reproduce-multi: $(STAMP)
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)
-	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_docs benchmarks scenarios docs
-	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_docs benchmarks scenarios docs
+	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_docs benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_docs benchmarks scenarios docs/conf.py docs/_ext
 	$(BIN)/pyright
 
 clean:
