@@ -24,7 +24,10 @@ items' values and places drift::
 
 Every task must give the learner the same observation and action spaces: one policy lives
 the whole life. Faults are reported with the file, line and key path, as scenario files'
-are; a task's scenario with its overrides is loaded and checked when the stream is.
+are. Every reference is resolved when the stream loads (``policies.references``): a task's
+scenario (a shipped name, or a path read beside the stream file first) with its overrides,
+loaded and checked; its focal agents; its background policy, made for every agent it
+drives. The file itself is read through ``scenario.files`` (a regular file, a size limit).
 """
 
 from __future__ import annotations
