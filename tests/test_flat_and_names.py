@@ -212,6 +212,17 @@ def test_suites_find_agents_by_team_and_by_role_name():
         focal_agents(env, ["agent_0"])
 
 
+def test_suite_and_stream_files_name_focal_agents_by_role():
+    from flatland_ma.policies.references import focal_indices
+    from flatland_ma.scenario.errors import SpecError
+
+    relay = flatland_ma.load_scenario("plate_relay")
+    assert focal_indices(relay, ["runner_0"], "plate_relay") == [1]
+    assert focal_indices(relay, ["scout"], "plate_relay") == [0]
+    with pytest.raises(SpecError, match="'agent_1' is no agent or team.*scout_0, runner_0"):
+        focal_indices(relay, ["agent_1"], "plate_relay")
+
+
 def test_names_within_teams_are_numbered_per_team():
     env = flatland_ma.parallel_env(
         "fruits_poisons_multi",

@@ -296,6 +296,7 @@ def _same_spaces(stream: Stream, entries, fault) -> None:
     first = None
     for (key, task), scenario, focal in zip(entries, stream.scenarios, stream._focal):
         env = FlatlandParallelEnv(scenario)
+        names = [env.possible_agents[i] for i in focal]
         spaces = {
             (
                 str(env.observation_space(env.possible_agents[i])),
@@ -316,7 +317,13 @@ def _same_spaces(stream: Stream, entries, fault) -> None:
             raise fault(key, f"the learner's agents have different spaces here: {sorted(spaces)}")
         (space,) = spaces
         if first is None:
-            first = (key, space)
+            first = (key, space, names)
+        elif names != first[2]:
+            raise fault(
+                key,
+                f"the learner drives {names} here, but {first[2]} in the first task: "
+                "one policy lives the whole life, under the same agent names",
+            )
         elif space != first[1]:
             raise fault(
                 key,

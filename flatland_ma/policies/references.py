@@ -47,10 +47,11 @@ def scenario_of(name: str | Path, overrides: Mapping, file: Path | None = None) 
 
 
 def focal_indices(scenario: ScenarioSpec, names: Sequence[str], what: str) -> list[int]:
-    """The indices of the agents ``names`` (agent names ``agent_<i>`` or team names) stand
-    for, sorted; ``SpecError`` at ``focal[k]`` for a name that is neither, at ``focal``
-    when they cover every agent (``what`` names the scenario in messages)."""
-    agents = [f"agent_{i}" for i in range(scenario.n_agents)]
+    """The indices of the agents ``names`` (agent names, ``agent_<i>`` or by team as
+    ``<team>_<k>``, or team names) stand for, sorted; ``SpecError`` at ``focal[k]`` for a
+    name that is neither, at ``focal`` when they cover every agent (``what`` names the
+    scenario in messages)."""
+    agents = list(scenario.agent_names)
     firsts, first = {}, 0
     for team in scenario.teams:
         firsts[team.name] = range(first, first + team.size)
@@ -65,8 +66,7 @@ def focal_indices(scenario: ScenarioSpec, names: Sequence[str], what: str) -> li
             teams = f"; teams: {', '.join(firsts)}" if firsts else ""
             raise SpecError(
                 ("focal", k),
-                f"{name!r} is no agent or team of {what}; agents: agent_0 to "
-                f"agent_{scenario.n_agents - 1}{teams}",
+                f"{name!r} is no agent or team of {what}; agents: {', '.join(agents)}{teams}",
             )
     if len(out) == scenario.n_agents:
         raise SpecError(("focal",), "every agent is focal: leave background slots for partners")
