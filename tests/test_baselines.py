@@ -381,13 +381,13 @@ def test_ppo_hears_and_speaks_where_the_scenario_has_a_channel(tmp_path, channel
     saved = read_checkpoint(tmp_path / "seed_0.pt")
     assert saved["overrides"] == ({} if channel else {"channel": None})
     assert saved["action_sizes"] == ([3, 2] if channel else [3])
-    policy = make_policy(str(tmp_path / "seed_0.pt"), env, "agent_1", seed=0)
+    policy = make_policy(str(tmp_path / "seed_0.pt"), env, "seeker_0", seed=0)
     observations, _ = env.reset(seed=0)
-    assert env.action_space("agent_1").contains(policy.act(observations["agent_1"]))
+    assert env.action_space("seeker_0").contains(policy.act(observations["seeker_0"]))
     if channel:  # the other way round, the checkpoint does not fit
         silent = __import__("flatland_ma").parallel_env("signal_maps", channel=None)
         with pytest.raises(ValueError, match="space"):
-            make_policy(str(tmp_path / "seed_0.pt"), silent, "agent_1")
+            make_policy(str(tmp_path / "seed_0.pt"), silent, "seeker_0")
 
 
 @pytest.mark.parametrize("scenario", ["plate_relay", "signal_rooms"])

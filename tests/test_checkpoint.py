@@ -153,23 +153,23 @@ def test_a_network_on_a_dict_observation_acts_in_a_multidiscrete_space(tmp_path)
     observations, _ = env.reset(seed=0)
     example = {
         key: np.stack([observations[a][key] for a in env.possible_agents])
-        for key in observations["agent_0"]
+        for key in observations["guide_0"]
     }
     path = write_checkpoint(
         tmp_path / "spoken.pt",
         Spoken(),
         example,
         scenario="signal_maps",
-        observation_space=env.observation_space("agent_1"),
-        action_space=env.action_space("agent_1"),
+        observation_space=env.observation_space("seeker_0"),
+        action_space=env.action_space("seeker_0"),
     )
     assert read_checkpoint(path)["action_sizes"] == [3, 2]
-    policy = make_policy(str(path), env, "agent_1", seed=5)
+    policy = make_policy(str(path), env, "seeker_0", seed=5)
     assert isinstance(policy, CheckpointPolicy)
-    said = {key: value.copy() for key, value in observations["agent_1"].items()}
-    said["messages"][0, :] = [1.0, 0.0, 1.0]  # agent_0 said word 1
+    said = {key: value.copy() for key, value in observations["seeker_0"].items()}
+    said["messages"][0, :] = [1.0, 0.0, 1.0]  # guide_0 said word 1
     action = policy.act(said)
-    assert env.action_space("agent_1").contains(action) and action[1] == 1
+    assert env.action_space("seeker_0").contains(action) and action[1] == 1
     batch = {key: np.repeat(value[None], 20_000, axis=0) for key, value in said.items()}
     actions = policy.act_batch(batch)
     assert actions.shape == (20_000, 2) and (actions[:, 1] == 1).all()
@@ -179,6 +179,6 @@ def test_a_network_on_a_dict_observation_acts_in_a_multidiscrete_space(tmp_path)
     # It plays whole episodes beside a shipped guide.
     from flatland_ma.policies.rollout import play_episode
 
-    guide = make_policy("signaller", env, "agent_0")
-    returns, _ = play_episode(env, {"agent_0": guide, "agent_1": policy}, seed=1)
-    assert set(returns) == {"agent_0", "agent_1"}
+    guide = make_policy("signaller", env, "guide_0")
+    returns, _ = play_episode(env, {"guide_0": guide, "seeker_0": policy}, seed=1)
+    assert set(returns) == {"guide_0", "seeker_0"}

@@ -58,7 +58,7 @@ def test_keys_set_the_entries_of_a_continuous_action():
     np.testing.assert_array_equal(keys.action({"up", "down"}), np.zeros(6))  # they cancel
     np.testing.assert_array_equal(keys.action({"space"}), np.zeros(6))  # a step of nothing
     assert keys.action({"tab"}) is None
-    assert env.action_space("agent_0").contains(keys.action({"up", "e", "r"}))
+    assert env.action_space("red_0").contains(keys.action({"up", "e", "r"}))
 
 
 def test_a_key_script_holds_keys_for_frames_then_quits():
@@ -130,7 +130,7 @@ def test_idle_others_keep_still_in_every_action_mode():
             env.step({a: idle.act() for a in env.agents})
         assert (env.running.bodies[1].body.position - start).length < 1e-6
     env = flatland_ma.parallel_env("tug_of_war")
-    assert IdlePolicy(env, "agent_1").act() == env.action_index("stay", "agent_1")
+    assert IdlePolicy(env, "red_1").act() == env.action_index("stay", "red_1")
 
 
 def test_each_episodes_score_is_appended_to_the_scores_file(tmp_path):
