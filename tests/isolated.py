@@ -22,11 +22,12 @@ safe.
 A case can also be a command line (``flatland_ma.cli.main(argv)``, its output captured) or
 a Python snippet (API misuse), run in the case's own folder (``tests/isolated_calls.py``);
 the zygote imports what a request names in ``warm`` (torch, for checkpoints) once, before
-forking.
+forking. What a child does for a scenario is in ``tests/isolated_scenario.py``, the
+``Outcome`` it reports in ``tests/isolated_outcome.py``.
 
-Run this file to try a case by hand::
+Run this module from the project's root to try a case by hand::
 
-    python tests/isolated.py SCENARIO [OVERRIDES_AS_JSON]
+    python -m tests.isolated SCENARIO [OVERRIDES_AS_JSON]
 """
 
 from __future__ import annotations
@@ -44,23 +45,18 @@ import signal
 import subprocess
 import sys
 import time
-import traceback
-import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
+
+from tests.isolated_outcome import KINDS, MEMORY_BUDGET_MB, OVERRIDES, TIME_LIMIT, Outcome
+from tests.isolated_scenario import exception_report, run_case
+
+__all__ = ["KINDS", "OVERRIDES", "Outcome", "Runner", "ZygoteError", "runner"]
 
 ROOT = Path(__file__).resolve().parent.parent
 """The project's root: the zygote imports ``flatland_ma`` from here."""
 
-TIME_LIMIT = 30.0
-"""Wall-clock seconds a case may take, by default (load, two resets and the steps)."""
-MEMORY_BUDGET_MB = 1024
-"""Address space a case may add to the zygote's, in MiB, by default. The zygote maps
-about 500 MiB (most of it reserved, not resident: numba, llvmlite, numpy); a case that
-needs more than this much on top is refused by the kernel and sees ``MemoryError``."""
 STEPS = 10
 """Random steps after each of the two resets."""
-SEEDS = (0, 1)
 WARM_UP = ("fruits_poisons", "textured_fruits", "push_box", "maze_goal", "hinged_doors")
 """Shipped scenarios the zygote builds and steps once, so that their kernels (ray
 casting, textures, reachability) are loaded before any fork."""
@@ -70,126 +66,6 @@ SINGLE_THREADED = {
     "MKL_NUM_THREADS": "1",
     "NUMBA_NUM_THREADS": "1",
 }
-OVERRIDES = "<overrides>"
-"""The source of a problem in the keyword overrides."""
-TEXT_KEPT = 4000
-"""Longest message or traceback an outcome keeps."""
-
-KINDS = (
-    "works",  # loaded, reset and stepped (see finite, in_space, rewards_finite)
-    "located",  # ScenarioError whose every problem names its source
-    "internal-error",  # ScenarioError wrapping an unexpected exception ("internal error")
-    "unlocated",  # ScenarioError with a problem that names no source
-    "other-exception",  # any other exception, while loading or running
-    "memory",  # MemoryError
-    "timeout",  # killed after the wall-clock limit
-    "crashed",  # died by a signal (SIGABRT from a C assertion, SIGSEGV) or exited early
-    "exited",  # a command line ran to its exit status (see exit_code, stderr)
-    "returned",  # a snippet ran to its end
-    "raised",  # a snippet raised (see raised_types, detail, problems)
-)
-
-
-@dataclass
-class Outcome:
-    """What running a case gave; ``kind`` is one of ``KINDS``."""
-
-    kind: str
-    wall_s: float = 0.0
-    """Wall-clock seconds from fork to the child's exit."""
-    peak_rss_mb: float = 0.0
-    """The child's peak resident memory (it starts as a copy of the zygote's)."""
-    start_rss_mb: float = 0.0
-    """The child's resident memory when it started (the pages it shares with the zygote
-    count once it touches them, so its peak counts some of the zygote's too)."""
-    detail: str = ""
-    """The first problem (``str(problem)``), the exception, or why the child died."""
-    problems: list[dict] = field(default_factory=list)
-    """Each problem of a ScenarioError: source, line, key (as printed) and message."""
-    phase: str = ""
-    """Where an exception came from: load, reset or step."""
-    traceback: str = ""
-    warnings: list[str] = field(default_factory=list)
-    load_s: float | None = None
-    reset_s: float | None = None
-    steps: int = 0
-    finite: bool | None = None
-    """Every observation finite."""
-    in_space: bool | None = None
-    """Every observation inside its agent's observation space."""
-    bad_observation: str = ""
-    """The first observation not finite or outside its space."""
-    rewards_finite: bool | None = None
-    rewards_nan: bool | None = None
-    """Some reward was NaN."""
-    bad_reward: str = ""
-    """The first reward not finite."""
-    time_limit: float = TIME_LIMIT
-    memory_limit_mb: float = MEMORY_BUDGET_MB
-    exit_code: int | None = None
-    """A command line's exit status (1 for an uncaught exception, as Python gives)."""
-    stdout: str = ""
-    stderr: str = ""
-    """What a command printed (long output keeps its head and its tail)."""
-    printed_traceback: bool = False
-    """A command printed a Python traceback (it let an exception escape)."""
-    internal_error: bool = False
-    """A command printed, or a snippet's exception said, "internal error"."""
-    raised_types: list[str] = field(default_factory=list)
-    """The names of the classes of a snippet's exception (its type first, then its bases)."""
-
-    @property
-    def messages(self) -> str:
-        return "\n".join(p["message"] for p in self.problems)
-
-    def unplaced(self) -> list[dict]:
-        """The problems that do not say where they are: without a source, or at a key of a
-        file without its line (overrides have no lines)."""
-        return [
-            p
-            for p in self.problems
-            if not p["source"] or (p["key"] and p["source"] != OVERRIDES and p["line"] is None)
-        ]
-
-    @property
-    def grown_mb(self) -> float:
-        """Resident memory the child added to what it started with."""
-        return self.peak_rss_mb - self.start_rss_mb
-
-    def summary(self) -> str:
-        """One paragraph saying what happened, with the figures, for assertion messages."""
-        head = (
-            f"{self.kind} in {self.wall_s:.2f} s (limit {self.time_limit:g} s), "
-            f"peak RSS {self.peak_rss_mb:.0f} MiB (+{self.grown_mb:.0f} MiB from its start; "
-            f"address space limit +{self.memory_limit_mb:g} MiB)"
-        )
-        if self.kind == "works":
-            head += (
-                f"; load {self.load_s:.2f} s, first reset {self.reset_s:.2f} s, "
-                f"{self.steps} steps, finite={self.finite}, in_space={self.in_space}, "
-                f"rewards_finite={self.rewards_finite}"
-            )
-            faults = [fault for fault in (self.bad_observation, self.bad_reward) if fault]
-            if faults:
-                head += f" ({'; '.join(faults)})"
-        if self.kind == "exited":
-            head += f"; exit status {self.exit_code}"
-        lines = [head]
-        if self.stderr:
-            lines.append(f"stderr: {self.stderr}")
-        if self.stdout:
-            lines.append(f"stdout: {self.stdout}")
-        if self.phase:
-            lines.append(f"during {self.phase}")
-        if self.detail:
-            lines.append(self.detail)
-        if self.traceback:
-            lines.append(self.traceback)
-        if self.warnings:
-            lines.append("warnings: " + "; ".join(self.warnings))
-        return "\n".join(lines)
-
-
 # -- the client, in the test process -------------------------------------------------------
 
 
@@ -481,7 +357,7 @@ def _child(request: dict, write_end: int) -> None:
             exec(request["prelude"], {})
             report = run_case(request)
     except BaseException as err:  # noqa: BLE001 - anything at all is reported
-        report = _exception_report("memory" if isinstance(err, MemoryError) else "crashed", err)
+        report = exception_report("memory" if isinstance(err, MemoryError) else "crashed", err)
         code = 1
     try:
         data = json.dumps(report, allow_nan=True).encode()
@@ -517,122 +393,6 @@ def _limit(request: dict) -> None:
     cpu = math.ceil(float(request["time_limit"])) + 2
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-
-
-def run_case(request: dict) -> dict:
-    """Load the case's scenario and, if it loads, reset and step it; the report's fields
-    are ``Outcome``'s."""
-    import numpy as np
-
-    import flatland_ma
-    from flatland_ma.scenario.errors import ScenarioError, format_path
-
-    report: dict = {"kind": "works"}
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        started = time.perf_counter()
-        try:
-            env = flatland_ma.parallel_env(request["scenario"], **request["overrides"])
-        except ScenarioError as err:
-            report = _scenario_error_report(err, format_path)
-        except BaseException as err:  # noqa: BLE001
-            report = _exception_report(_kind_of(err), err, phase="load")
-        else:
-            report["load_s"] = time.perf_counter() - started
-            try:
-                _exercise(env, request["steps"], report, np)
-            except BaseException as err:  # noqa: BLE001
-                report = {**report, **_exception_report(_kind_of(err), err, report["phase"])}
-    report["warnings"] = sorted({f"{w.category.__name__}: {w.message}" for w in caught or []})[:20]
-    return report
-
-
-def _exercise(env, steps: int, report: dict, np) -> None:
-    """Reset with each seed and step at random, checking every observation."""
-    report.update(steps=0, finite=True, in_space=True, bad_observation="")
-    report.update(rewards_finite=True, rewards_nan=False, bad_reward="")
-    for seed in SEEDS:
-        report["phase"] = "reset"
-        started = time.perf_counter()
-        observations, _ = env.reset(seed=seed)
-        report.setdefault("reset_s", time.perf_counter() - started)
-        _check(env, observations, {}, report, np)
-        for i, agent in enumerate(env.possible_agents):
-            env.action_space(agent).seed(seed * 1000 + i)
-        report["phase"] = "step"
-        for _ in range(steps):
-            if not env.agents:
-                break
-            actions = {a: env.action_space(a).sample() for a in env.agents}
-            observations, rewards, *_ = env.step(actions)
-            report["steps"] += 1
-            _check(env, observations, rewards, report, np)
-    report["phase"] = ""
-
-
-def _check(env, observations: dict, rewards: dict, report: dict, np) -> None:
-    for agent, observation in observations.items():
-        arrays = observation.values() if isinstance(observation, dict) else [observation]
-        if not all(np.isfinite(a).all() for a in arrays):
-            report["finite"] = False
-            report["bad_observation"] = report["bad_observation"] or (
-                f"{agent}'s observation after {report['steps']} steps is not finite"
-            )
-        if not env.observation_space(agent).contains(observation):
-            report["in_space"] = False
-            report["bad_observation"] = report["bad_observation"] or (
-                f"{agent}'s observation after {report['steps']} steps is outside its space"
-            )
-    for agent, reward in rewards.items():
-        if not np.isfinite(reward):
-            report["rewards_finite"] = False
-            report["rewards_nan"] = report["rewards_nan"] or bool(np.isnan(reward))
-            report["bad_reward"] = report["bad_reward"] or (
-                f"{agent}'s reward after {report['steps']} steps is {reward}"
-            )
-
-
-def _scenario_error_report(err, format_path) -> dict:
-    problems = [
-        {
-            "source": p.source,
-            "line": p.line,
-            "key": format_path(p.path),
-            "message": p.message[:TEXT_KEPT],
-        }
-        for p in err.problems
-    ][:50]
-    if not problems:
-        kind = "unlocated"
-    elif any("internal error" in p["message"] for p in problems):
-        kind = "internal-error"
-    elif all(p["source"] for p in problems):
-        kind = "located"
-    else:
-        kind = "unlocated"
-    report = {"kind": kind, "problems": problems, "phase": "load"}
-    report["detail"] = str(err.problems[0])[:TEXT_KEPT] if err.problems else str(err)
-    if kind == "internal-error":
-        report["traceback"] = _traceback(err.__cause__ or err)
-    return report
-
-
-def _kind_of(err: BaseException) -> str:
-    return "memory" if isinstance(err, MemoryError) else "other-exception"
-
-
-def _exception_report(kind: str, err: BaseException, phase: str = "") -> dict:
-    return {
-        "kind": kind,
-        "phase": phase,
-        "detail": f"{type(err).__name__}: {err}"[:TEXT_KEPT],
-        "traceback": _traceback(err),
-    }
-
-
-def _traceback(err: BaseException) -> str:
-    text = "".join(traceback.format_exception(type(err), err, err.__traceback__))
-    return text[-TEXT_KEPT:]
 
 
 # -- processes -----------------------------------------------------------------------------

@@ -132,8 +132,16 @@ BATCHED_CASES = [
         raises("ValueError", "shards"),
     ),
     threads("two_threads_on_a_batched_env", BATCHED, "[0, 1, 2, 0]"),
-    # deadlocks until the time limit while the sharded env has no guard
-    threads("two_threads_on_a_sharded_env", SHARDED, "[0, 1, 2, 0]", steps=100, slow=True),
+    # deadlocked until the time limit before the sharded env had a guard; its shards start
+    # fresh interpreters (tens of seconds on a busy machine)
+    threads(
+        "two_threads_on_a_sharded_env",
+        SHARDED,
+        "[0, 1, 2, 0]",
+        steps=100,
+        slow=True,
+        time_limit=120.0,
+    ),
     threads("two_threads_on_a_single_env", SINGLE, "{'agent_0': 1}"),
 ]
 

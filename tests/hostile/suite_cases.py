@@ -71,6 +71,7 @@ CASES = [
         "valid_evaluated",
         evaluated(suite(good(scripted="[greedy]", overrides="{episode: {max_steps: 60}}"))),
         exits(0, "fruits_poisons_multi"),
+        time_limit=120.0,  # seconds of play, not a hostile input: room for a busy machine
     ),
     Input(
         "background_unknown",
