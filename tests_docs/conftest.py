@@ -52,6 +52,8 @@ def browser_context():
                 args=CHROMIUM_FLAGS,
                 viewport={"width": 1280, "height": 800},
             )
+            # A bound for a page that never loads, generous for a busy 2-core machine.
+            context.set_default_timeout(120_000)
             try:
                 yield context
             finally:
