@@ -7,8 +7,11 @@ import math
 import numpy as np
 from gymnasium import spaces
 
-from flatland_ma.scenario.spec_agent import MIN_TOUCH_FORCE
 from flatland_ma.sensors.sensor import Sensor
+
+MIN_TOUCH_FORCE = 1.0
+"""The smallest ``max_force`` (newtons) a touch sensor takes: below it a reading's scale
+loses meaning (scenario files are held to the same bound by their spec)."""
 
 TAU = 2.0 * math.pi
 
@@ -62,7 +65,7 @@ class Touch(Sensor, kind="touch"):
     def from_spec(cls, values: dict, parts: list) -> Touch:
         values = dict(values)
         per_part = values.pop("parts", True)
-        names = tuple(p.controls[0].name for p in parts) if per_part else ()
+        names = tuple(_part_name(p) for p in parts) if per_part else ()
         return cls(part_names=names, **values)
 
     def attach(self, suite, k: int) -> None:
@@ -89,3 +92,8 @@ class Touch(Sensor, kind="touch"):
             impulse[n + i] = sum(push for _, push in pushes.get(row, ()))
         scale = self._scale  # impulse over the step to the fraction of max_force
         return np.array([min(j * scale, 1.0) for j in impulse], np.float32)
+
+
+def _part_name(part) -> str:
+    """A part's entry's label: its first control's name, else its label (``parts[0]``)."""
+    return part.controls[0].name if part.controls else (part.label or part.kind)
