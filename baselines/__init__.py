@@ -16,4 +16,13 @@ own (``common.info_counters``).
     python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons
 """
 
+import os
+
+# OpenMP's idle threads must sleep, not spin: the batched env's ray kernel runs on numba's
+# OpenMP threads, and once torch has loaded libgomp with its default (spinning) policy they
+# keep both cores busy after every step, which made each of the learner's convolutions
+# 50 times slower. flatland_ma asks for this too, but only when its kernel is imported,
+# which is after torch here; libgomp reads the policy once, when it is loaded.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
 ALGORITHMS = ("dqn", "a3c", "dfp", "ppo")
