@@ -3,6 +3,7 @@ package data ``flatland_ma/scenarios/``, and an install from it finds them there
 ``importlib.resources``, not the source tree)."""
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -19,7 +20,8 @@ SOURCES = ["pyproject.toml", "README.md", "flatland_ma", "scenarios"]
 
 
 @pytest.fixture(scope="module")
-def wheel(tmp_path_factory) -> Path:
+def build(tmp_path_factory) -> tuple[Path, str]:
+    """The wheel built from a copy of the sources, and what the build printed."""
     source, out = tmp_path_factory.mktemp("source"), tmp_path_factory.mktemp("wheel")
     for name in SOURCES:
         if (ROOT / name).is_dir():
@@ -28,10 +30,22 @@ def wheel(tmp_path_factory) -> Path:
         else:
             shutil.copy2(ROOT / name, source / name)
     command = [sys.executable, "-m", "pip", "wheel", str(source), "--no-deps"]
-    command += ["--no-build-isolation", "--quiet", "--wheel-dir", str(out)]
-    subprocess.run(command, check=True, capture_output=True, text=True)
+    command += ["--no-build-isolation", "--wheel-dir", str(out)]
+    quiet = {**os.environ, "PIP_DISABLE_PIP_VERSION_CHECK": "1"}
+    run = subprocess.run(command, capture_output=True, text=True, env=quiet)
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-4000:]
     (built,) = out.glob("flatland_ma-*.whl")
-    return built
+    return built, run.stdout + run.stderr
+
+
+@pytest.fixture(scope="module")
+def wheel(build) -> Path:
+    return build[0]
+
+
+@pytest.fixture(scope="module")
+def wheel_log(build) -> str:
+    return build[1]
 
 
 def test_the_wheel_holds_every_scenario_file_as_package_data(wheel):
@@ -41,9 +55,18 @@ def test_the_wheel_holds_every_scenario_file_as_package_data(wheel):
     missing = [name for name in shipped if f"flatland_ma/scenarios/{name}" not in names]
     assert missing == [], f"not in {wheel.name}: {missing}"
     assert not [name for name in names if name.startswith("scenarios/")]
-    suites = sorted(p.name for p in (ROOT / "scenarios" / "suites").glob("*.yaml"))
-    assert "society.yaml" in suites
-    assert [s for s in suites if f"flatland_ma/scenarios/suites/{s}" not in names] == []
+    for folder, example in (("suites", "society.yaml"), ("streams", "never_ending.yaml")):
+        files = sorted(p.name for p in (ROOT / "scenarios" / folder).iterdir() if p.is_file())
+        assert example in files
+        missing = [s for s in files if f"flatland_ma/scenarios/{folder}/{s}" not in names]
+        assert missing == [], f"not in {wheel.name}: {folder}/{missing}"
+
+
+def test_the_build_prints_no_warning_from_our_configuration(wheel_log):
+    """setuptools prints a warning block (``SetuptoolsDeprecationWarning``,
+    ``BuildBackendWarning``) for what it dislikes in pyproject.toml: a license table, a
+    folder of package data that is no listed package. The build prints none."""
+    assert re.findall(r"\w*Warning\b.*", wheel_log) == [], wheel_log[-4000:]
 
 
 def test_the_wheel_holds_every_module_of_the_package(wheel):
