@@ -11,6 +11,10 @@ import torch
 import flatland_ma
 from flatland_ma.agents.actuators import InvalidActionError
 
+HANG_GUARD = 600.0
+"""Seconds a thread may take before the test gives up on it: a guard against a hang (a
+thread that never gets the lock or the event), far above what a busy machine needs."""
+
 
 def test_a_second_thread_inside_one_env_gets_a_clear_error():
     env = flatland_ma.parallel_env("fruits_poisons_multi")
@@ -21,22 +25,22 @@ def test_a_second_thread_inside_one_env_gets_a_clear_error():
 
     def slow_step():
         inside.set()
-        release.wait(10)
+        release.wait(HANG_GUARD)
         original()
 
     world.step = slow_step
     actions = {a: 0 for a in env.agents}
     results = []
-    first = threading.Thread(target=lambda: results.append(env.step(actions)))
+    first = threading.Thread(target=lambda: results.append(env.step(actions)), daemon=True)
     first.start()
-    assert inside.wait(10)
+    assert inside.wait(HANG_GUARD)
     before = [tuple(b.body.position) for b in env.episode.bodies]
     for call in (lambda: env.step(actions), lambda: env.reset(seed=1)):
         with pytest.raises(RuntimeError, match="in use by another thread"):
             call()
     assert [tuple(b.body.position) for b in env.episode.bodies] == before  # untouched
     release.set()
-    first.join(10)
+    first.join(HANG_GUARD)
     assert len(results) == 1
     world.step = original
     env.step(actions)  # free again once the first call is done
@@ -53,11 +57,12 @@ def test_separate_envs_in_separate_threads_keep_working():
         out[seed] = [tuple(b.body.position) for b in env.episode.bodies]
 
     together, alone = {}, {}
-    threads = [threading.Thread(target=play, args=(s, together)) for s in (0, 1)]
+    threads = [threading.Thread(target=play, args=(s, together), daemon=True) for s in (0, 1)]
     for thread in threads:
         thread.start()
     for thread in threads:
-        thread.join(60)
+        thread.join(HANG_GUARD)
+        assert not thread.is_alive()
     for seed in (0, 1):
         play(seed, alone)
     assert together == alone  # the same trajectories as played one at a time
