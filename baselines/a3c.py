@@ -31,22 +31,19 @@ import tyro
 from torch import nn
 
 from baselines.common import (
-    FromObservation,
     RunLog,
-    conv_trunk,
     counters_text,
     default_csv,
     info_counters,
     input_channels,
-    keras_init,
     make_env,
     seed_everything,
     to_input,
-    trunk_length,
 )
 from baselines.writer import Scalars
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.policies.checkpoint import write_checkpoint
+from flatland_ma.policies.checkpoint import SUFFIX, write_checkpoint
+from flatland_ma.policies.networks import ActorCritic
 
 
 @dataclass
@@ -84,32 +81,6 @@ class Args:
     saves too)."""
     tensorboard: bool = True
     """Write TensorBoard events beside the CSV."""
-
-
-class ActorCritic(nn.Module):
-    """Conv1D(32, 8) - Conv1D(48, 4) - Conv1D(64, 3) - Dense(128), ELU activations as in
-    universe-starter-agent, then a softmax policy and a value. Glorot-uniform hidden layers;
-    output rows of norm 0.01 (policy) and 1 (value), as that implementation initialises them."""
-
-    def __init__(self, channels: int, rays: int, actions: int, hidden: int):
-        super().__init__()
-        self.body = nn.Sequential(
-            conv_trunk(channels, nn.ELU),
-            nn.Flatten(),
-            nn.Linear(64 * trunk_length(rays), hidden),
-            nn.ELU(),
-        )
-        self.policy = nn.Linear(hidden, actions)
-        self.value = nn.Linear(hidden, 1)
-        keras_init(self)
-        with torch.no_grad():
-            for head, norm in ((self.policy, 0.01), (self.value, 1.0)):
-                weight = torch.randn_like(head.weight)
-                head.weight.copy_(weight * norm / weight.norm(dim=1, keepdim=True))
-
-    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        h = self.body(x)
-        return self.policy(h), self.value(h).squeeze(-1)
 
 
 class Actors:
@@ -277,6 +248,7 @@ def train_a2c(args: Args, log: RunLog, shape: tuple, out: Outputs):
     optimizer = torch.optim.Adam(
         model.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
     )
+    out.optimizer = optimizer
     actors = Actors(args, list(range(args.num_workers)))
     global_step, update = 0, 0
 
@@ -300,7 +272,7 @@ def train_a2c(args: Args, log: RunLog, shape: tuple, out: Outputs):
         update += 1
         out.scalars.add("losses/loss", loss.item() / max(1, len(actions)), global_step)
         if args.checkpoint_every and update % args.checkpoint_every == 0:
-            out.save(model, out.run_dir / f"update_{update:05d}.pt", update, global_step)
+            out.save(model, out.run_dir / f"update_{update:05d}{SUFFIX}", update, global_step)
     return actors.env_seconds, time.perf_counter() - start, model
 
 
@@ -310,28 +282,32 @@ TRAIN = {"a3c": train_a3c, "a2c": train_a2c}
 
 class Outputs:
     """What a run writes beside its CSV: TensorBoard events and checkpoints in
-    ``<csv without .csv>/``, the final checkpoint as ``<csv without .csv>.pt``."""
+    ``<csv without .csv>/``, the final checkpoint as ``<csv without .csv>.safetensors``
+    (``flatland_ma.policies.checkpoint``: the network's weights and description, and in
+    a2c mode the optimiser's state; in a3c mode each actor-learner keeps its own Adam
+    state, which is not saved)."""
 
-    def __init__(self, args: Args, csv_path: str, example: np.ndarray, spaces: tuple):
-        self.args, self.example, self.spaces = args, example, spaces
-        self.final = Path(csv_path).with_suffix(".pt")
+    def __init__(self, args: Args, csv_path: str, spaces: tuple):
+        self.args, self.spaces = args, spaces
+        self.optimizer: torch.optim.Optimizer | None = None
+        """The optimiser whose state checkpoints keep (a2c), set by the training loop."""
+        self.final = Path(csv_path).with_suffix(SUFFIX)
         self.run_dir = Path(csv_path).with_suffix("")
         self.scalars = Scalars(self.run_dir if args.tensorboard else None)
 
     def save(self, model: ActorCritic, path: Path, update: int | None, steps: int) -> None:
         write_checkpoint(
             path,
-            FromObservation(model, input_channels(self.args.use_depth)),
-            self.example,
+            model,
             scenario=self.args.scenario,
             observation_space=self.spaces[0],
             action_space=self.spaces[1],
+            optimizer=None if self.optimizer is None else self.optimizer.state_dict(),
             extra={
                 "algorithm": self.args.mode,
                 "args": asdict(self.args),
                 "update": update,
                 "agent_steps": steps,
-                "model": model.state_dict(),
             },
         )
 
@@ -340,7 +316,7 @@ def main(args: Args) -> dict:
     train = TRAIN[args.mode]
     seed_everything(args.seed)
     probe = make_env(args.scenario)
-    first, info = probe.reset(seed=args.seed)
+    _, info = probe.reset(seed=args.seed)
     counters = info_counters(info)
     shape = (
         input_channels(args.use_depth),
@@ -352,7 +328,7 @@ def main(args: Args) -> dict:
     probe.close()
     csv_path = args.csv or default_csv(args.mode, args.scenario, args.seed)
     log = RunLog(args.mode, csv_path, args.seed, args, counters)
-    out = Outputs(args, csv_path, first[None], spaces)
+    out = Outputs(args, csv_path, spaces)
     env_seconds, busy_seconds, model = train(args, log, shape, out)
     out.save(model, out.final, None, args.total_timesteps)
     out.scalars.close()

@@ -1,5 +1,6 @@
 """Pieces every baseline shares: the scenario's counters, seeding, the timed env, the
-evaluation after training, the paper's conv trunk, input normalisation, and the per-run
+evaluation after training, the paper's conv trunk (from ``flatland_ma.policies.networks``,
+where the networks checkpoints hold are defined), input normalisation, and the per-run
 CSV log. Each algorithm's ``Args`` dataclass is turned into flags by ``tyro.cli``.
 
 A run writes ``<csv>.part`` while it trains, one row per finished episode and agent
@@ -23,16 +24,21 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 import torch
-from torch import nn
 
 import flatland_ma
+
+# The paper's trunk and Keras' initialisation, for the baselines that import them from here.
+from flatland_ma.policies.networks import (  # noqa: F401
+    CONV_CHANNELS,
+    CONV_KERNELS,
+    conv_trunk,
+    keras_init,
+    trunk_length,
+)
 
 FIXED_COLUMNS = ("seed", "episode", "step", "agent", "return", "wall_time")
 """Every run's CSV columns; the scenario's counters go between ``return`` and ``wall_time``.
 One row per finished episode and agent; ``step`` counts agent-steps since the start."""
-
-CONV_CHANNELS = (32, 48, 64)
-CONV_KERNELS = (8, 4, 3)
 
 
 # -- the scenario's counters ------------------------------------------------------------
@@ -168,44 +174,6 @@ def to_input(observation: np.ndarray, use_depth: bool) -> np.ndarray:
 
 
 # -- networks ----------------------------------------------------------------------------
-
-
-def conv_trunk(in_channels: int, activation: type[nn.Module] = nn.ReLU) -> nn.Sequential:
-    """The paper's 1-D convolutions: (32 filters, kernel 8) - (48, 4) - (64, 3), stride 1,
-    no padding: a 64-ray image becomes 64 channels of length 52."""
-    layers, channels = [], in_channels
-    for out_channels, kernel in zip(CONV_CHANNELS, CONV_KERNELS):
-        layers += [nn.Conv1d(channels, out_channels, kernel), activation()]
-        channels = out_channels
-    return nn.Sequential(*layers)
-
-
-def keras_init(module: nn.Module) -> None:
-    """Keras' default initialisation (Glorot uniform weights, zero biases), for the
-    baselines whose reference implementation is written in Keras."""
-    for layer in module.modules():
-        if isinstance(layer, (nn.Conv1d, nn.Linear)):
-            nn.init.xavier_uniform_(layer.weight)
-            nn.init.zeros_(layer.bias)
-
-
-def trunk_length(rays: int) -> int:
-    """Length of the trunk's output for an image of ``rays`` rays."""
-    return rays - sum(k - 1 for k in CONV_KERNELS)
-
-
-class FromObservation(nn.Module):
-    """A network's action logits from the env's raw observations, (batch, rays, 4): the
-    module a checkpoint holds (``flatland_ma.policies.checkpoint``). ``network`` maps
-    (batch, channels, rays) to the logits, or to a tuple whose first entry they are."""
-
-    def __init__(self, network: nn.Module, channels: int):
-        super().__init__()
-        self.network, self.channels = network, channels
-
-    def forward(self, observation: torch.Tensor) -> torch.Tensor:
-        out = self.network(observation[..., : self.channels].transpose(-1, -2))
-        return out[0] if isinstance(out, tuple) else out
 
 
 class RunningNormalizer:

@@ -17,10 +17,11 @@ world being reset (the batched env resets in Gymnasium's NEXT_STEP mode). A trun
 episode bootstraps from the value of its last observation, which that mode returns.
 
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
-episode): the final checkpoint ``seed_<seed>.pt``, and in ``seed_<seed>/`` a checkpoint
-every ``--checkpoint-every`` updates and the TensorBoard events
-(``tensorboard --logdir runs``). ``flatland-ma record SCENARIO --policy seed_0.pt`` plays
-a checkpoint.
+episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
+JSON description and the optimiser's state: ``flatland_ma.policies.checkpoint``), and in
+``seed_<seed>/`` a checkpoint every ``--checkpoint-every`` updates and the TensorBoard
+events (``tensorboard --logdir runs``). ``flatland-ma record SCENARIO --policy
+seed_0.safetensors`` plays a checkpoint.
 
     python -m baselines.ppo --scenario fruits_poisons_multi --seed 0 --total-timesteps 1000000
 """
@@ -44,7 +45,7 @@ from baselines.networks import Agent
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.policies.checkpoint import write_checkpoint
+from flatland_ma.policies.checkpoint import SUFFIX, write_checkpoint
 
 
 @dataclass
@@ -346,10 +347,10 @@ def main(args: Args) -> dict:
         write_checkpoint(
             path,
             agent,
-            observation,
             scenario=args.scenario,
             observation_space=space,
             action_space=env.single_action_space,
+            optimizer=optimizer.state_dict(),
             extra={
                 "algorithm": "ppo",
                 "trained_with": ["self"],  # self-play: every slot is this policy
@@ -358,8 +359,6 @@ def main(args: Args) -> dict:
                 "args": asdict(args),
                 "update": update,
                 "agent_steps": global_step,
-                "model": agent.state_dict(),
-                "optimizer": optimizer.state_dict(),
             },
         )
 
@@ -400,8 +399,8 @@ def main(args: Args) -> dict:
         }.items():
             scalars.add(key, value, global_step)
         if args.checkpoint_every and iteration % args.checkpoint_every == 0:
-            save(run_dir / f"update_{iteration:05d}.pt", iteration)
-    save(csv_path.with_suffix(".pt"), iterations)
+            save(run_dir / f"update_{iteration:05d}{SUFFIX}", iteration)
+    save(csv_path.with_suffix(SUFFIX), iterations)
     scalars.close()
     summary = log.close(global_step, env_seconds + rollout.env_seconds)
     print(

@@ -19,6 +19,7 @@ from flatland_ma import __version__, bench_command, options
 from flatland_ma.evaluation import command as evaluation
 from flatland_ma.lifelong import command as lifelong
 from flatland_ma.options import OptionError
+from flatland_ma.policies import convert_command
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 
@@ -156,6 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench_command.add_parser(commands)
     evaluation.add_parser(commands)
     lifelong.add_parser(commands)
+    convert_command.add_parser(commands)
     return parser
 
 
@@ -195,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
         "bench": bench_command.run,
         "evaluate": evaluation.run,
         "lifelong": lifelong.run,
+        "checkpoint": convert_command.run,
     }[args.command]
     try:
         status = command(args)

@@ -270,8 +270,12 @@ def test_a2c_reproduces_exactly_from_a_seed(tmp_path):
 def test_a2c_saves_checkpoints_that_compute_what_the_trained_network_computes(tmp_path):
     import torch
 
-    from baselines.a3c import ActorCritic
-    from flatland_ma.policies.checkpoint import CheckpointPolicy, read_checkpoint
+    from flatland_ma.policies.checkpoint import (
+        CheckpointPolicy,
+        read_checkpoint,
+        read_trainer_state,
+    )
+    from flatland_ma.policies.networks import ActorCritic
 
     out = tmp_path / "seed_0.csv"
     run_module(
@@ -280,21 +284,24 @@ def test_a2c_saves_checkpoints_that_compute_what_the_trained_network_computes(tm
         *("--checkpoint-every", "10", "--csv", str(out)),
     )
     run = tmp_path / "seed_0"
-    assert sorted(p.name for p in run.glob("*.pt")) == [f"update_000{k}0.pt" for k in (1, 2, 3)]
+    names = sorted(p.name for p in run.glob("*.safetensors"))
+    assert names == [f"update_000{k}0.safetensors" for k in (1, 2, 3)]
     assert list(run.glob("events.out.tfevents.*"))
-    saved = read_checkpoint(tmp_path / "seed_0.pt")
-    assert saved["algorithm"] == "a2c"
+    saved = read_checkpoint(tmp_path / "seed_0.safetensors")
+    assert saved["algorithm"] == "a2c" and saved["network"]["kind"] == "a3c"
     model = ActorCritic(3, 64, 3, 128)
-    model.load_state_dict(saved["model"])
+    state = read_trainer_state(tmp_path / "seed_0.safetensors")
+    model.load_state_dict(state["model"])
+    assert state["optimizer"]["state"]  # a2c keeps its Adam state for resuming
     env = __import__("flatland_ma").parallel_env("fruits_poisons")
     observation = env.reset(seed=4)[0]["agent_0"]
     x = torch.from_numpy(observation[:, :3].T.copy())[None]
     want = torch.softmax(model(x)[0], dim=1)[0].detach().numpy()
-    policy = CheckpointPolicy(tmp_path / "seed_0.pt", seed=1)
+    policy = CheckpointPolicy(tmp_path / "seed_0.safetensors", seed=1)
     draws = policy.act_batch(np.repeat(observation[None], 4000, axis=0))
     assert np.allclose(np.bincount(draws, minlength=3) / 4000, want, atol=0.03)
-    logits = policy.program(torch.from_numpy(observation[None]))
-    assert torch.allclose(logits, model(x)[0], atol=1e-5)
+    logits = policy.logits(observation[None])
+    assert np.array_equal(logits, model(x)[0].detach().double().numpy())
 
 
 def test_dfp_trains_on_the_measurements(tmp_path):
@@ -348,13 +355,14 @@ def test_ppo_logs_every_agent_of_every_episode_and_saves_what_plays(tmp_path):
     assert sum(int(r["fruits"]) + int(r["poisons"]) for r in rows) > 0
     # Checkpoints every 4 of the 8 updates and at the end, and TensorBoard events.
     run = tmp_path / "seed_0"
-    assert sorted(p.name for p in run.glob("*.pt")) == ["update_00004.pt", "update_00008.pt"]
+    names = sorted(p.name for p in run.glob("*.safetensors"))
+    assert names == ["update_00004.safetensors", "update_00008.safetensors"]
     assert list(run.glob("events.out.tfevents.*"))
     from flatland_ma.policies.checkpoint import CheckpointPolicy, read_checkpoint
 
-    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    saved = read_checkpoint(tmp_path / "seed_0.safetensors")
     assert saved["algorithm"] == "ppo" and saved["update"] == 8 and saved["agent_steps"] == 4088
-    policy = CheckpointPolicy(tmp_path / "seed_0.pt", seed=0)
+    policy = CheckpointPolicy(tmp_path / "seed_0.safetensors", seed=0)
     env = __import__("flatland_ma").parallel_env("fruits_poisons_multi")
     policy.check(env.observation_space("agent_0"), env.action_space("agent_0"))
     observations, _ = env.reset(seed=0)
@@ -378,16 +386,16 @@ def test_ppo_hears_and_speaks_where_the_scenario_has_a_channel(tmp_path, channel
     env = __import__("flatland_ma").parallel_env(
         "signal_maps", **({} if channel else {"channel": None})
     )
-    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    saved = read_checkpoint(tmp_path / "seed_0.safetensors")
     assert saved["overrides"] == ({} if channel else {"channel": None})
     assert saved["action_sizes"] == ([3, 2] if channel else [3])
-    policy = make_policy(str(tmp_path / "seed_0.pt"), env, "seeker_0", seed=0)
+    policy = make_policy(str(tmp_path / "seed_0.safetensors"), env, "seeker_0", seed=0)
     observations, _ = env.reset(seed=0)
     assert env.action_space("seeker_0").contains(policy.act(observations["seeker_0"]))
     if channel:  # the other way round, the checkpoint does not fit
         silent = __import__("flatland_ma").parallel_env("signal_maps", channel=None)
         with pytest.raises(ValueError, match="space"):
-            make_policy(str(tmp_path / "seed_0.pt"), silent, "seeker_0")
+            make_policy(str(tmp_path / "seed_0.safetensors"), silent, "seeker_0")
 
 
 @pytest.mark.parametrize("scenario", ["plate_relay", "signal_rooms"])
@@ -406,7 +414,7 @@ def test_ppo_shares_one_network_between_roles_that_observe_differently(tmp_path,
         *("--total-timesteps", "64", "--checkpoint-every", "0", "--no-tensorboard"),
         *("--csv", str(tmp_path / "seed_0.csv")),
     )
-    path = str(tmp_path / "seed_0.pt")
+    path = str(tmp_path / "seed_0.safetensors")
     env = flatland_ma.parallel_env(scenario)
     padding = Padding.of(env)
     assert padding is not None
@@ -433,7 +441,7 @@ def test_a_centralised_critic_values_the_world_state_and_which_agent_it_is(tmp_p
     from baselines.networks import Agent
     from baselines.ppo import slot_states
     from flatland_ma.envs.vector import BatchedParallelEnv
-    from flatland_ma.policies.checkpoint import read_checkpoint
+    from flatland_ma.policies.checkpoint import read_checkpoint, read_trainer_state
     from flatland_ma.policies.named import make_policy
 
     batch = BatchedParallelEnv("coop_carry", num_worlds=3)
@@ -460,11 +468,13 @@ def test_a_centralised_critic_values_the_world_state_and_which_agent_it_is(tmp_p
         *("--num-steps", "32", "--total-timesteps", "256", "--checkpoint-every", "0"),
         *("--no-tensorboard", "--csv", str(tmp_path / "seed_0.csv")),
     )
-    saved = read_checkpoint(tmp_path / "seed_0.pt")
+    saved = read_checkpoint(tmp_path / "seed_0.safetensors")
     assert saved["args"]["critic"] == "state"
-    assert saved["model"]["critic.0.weight"].shape[1] == rows.shape[1]
+    assert saved["network"]["arguments"]["state_size"] == rows.shape[1]
+    state = read_trainer_state(tmp_path / "seed_0.safetensors")
+    assert state["model"]["critic.0.weight"].shape[1] == rows.shape[1]
     env = __import__("flatland_ma").parallel_env("coop_carry")
-    policy = make_policy(str(tmp_path / "seed_0.pt"), env, "agent_0", seed=0)
+    policy = make_policy(str(tmp_path / "seed_0.safetensors"), env, "agent_0", seed=0)
     observations, _ = env.reset(seed=0)
     assert env.action_space("agent_0").contains(policy.act(observations["agent_0"]))
 

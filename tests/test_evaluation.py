@@ -156,7 +156,7 @@ def test_the_command_scores_a_ppo_checkpoint_and_refuses_one_trained_with_the_pa
     command += ["--num-envs", "1", "--num-steps", "64", "--total-timesteps", "256"]
     command += ["--checkpoint-every", "0", "--no-tensorboard", "--csv", str(csv)]
     subprocess.run(command, cwd=ROOT, check=True, capture_output=True, timeout=300)
-    checkpoint = tmp_path / "seed_0.pt"
+    checkpoint = tmp_path / "seed_0.safetensors"
     only_foraging = TINY[TINY.index("  - scenario: fruits_poisons_multi") :]
     carry = (
         "  - scenario: coop_carry\n    focal: [agent_0]\n    background: [carrier, idle, random]\n"
@@ -172,11 +172,11 @@ def test_the_command_scores_a_ppo_checkpoint_and_refuses_one_trained_with_the_pa
     assert (out / "evaluation.png").stat().st_size > 1000
     assert "all tasks (normalised)" in capsys.readouterr().out
 
-    import torch
+    from tests.checkpoint_helpers import rewrite_description
 
-    data = torch.load(checkpoint, weights_only=False)
-    data["trained_with"] = ["planner"]
-    torch.save(data, checkpoint)
+    rewrite_description(
+        checkpoint, lambda description: {**description, "trained_with": ["planner"]}
+    )
     assert main(["evaluate", str(checkpoint), "--suite", str(suite), "--out", str(out)]) == 2
     assert "trained beside ['planner']" in capsys.readouterr().err
 

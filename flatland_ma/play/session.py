@@ -67,7 +67,7 @@ class Session:
         if self.others not in OTHERS and not is_checkpoint(self.others):
             raise ValueError(
                 f"no policy {self.others!r} for the others; one of {', '.join(OTHERS)}, "
-                "or a checkpoint file (.pt)"
+                "or a checkpoint file (.safetensors)"
             )
         env = self.env
         self.maps = {

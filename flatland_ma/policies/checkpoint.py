@@ -1,81 +1,105 @@
 """A trained network saved by the baselines, played as a policy.
 
-A checkpoint is one file written by ``torch.save``: a dict with the network as an exported
-program (``torch.export``) that maps a batch of raw observations, exactly as the env gives
-them, to action logits, so playing it needs neither the training code nor its classes;
-beside it the scenario, the spaces, the training arguments and the trainer's own state
-(parameters, optimiser) for resuming. ``write_checkpoint`` (used by the baselines) writes
-one; ``CheckpointPolicy`` plays one::
+A checkpoint is one safetensors file (``.safetensors``) that holds only data:
 
-    policy = CheckpointPolicy("runs/ppo/fruits_poisons/seed_0.pt")
+- the network's weights, as tensors named ``model/<parameter>`` (its ``state_dict``);
+- a JSON description in the file's metadata (``policies.checkpoint_spec``): the format
+  version, the scenario, the spaces, and the network as a ``kind`` with its constructor
+  arguments, which this package's own code (``policies.networks``) rebuilds;
+- optionally the trainer's state for resuming: the optimiser's state as JSON in the
+  description (``optimizer``) with its tensors named ``optimizer/...``, and the training
+  arguments, update and step counts. ``read_trainer_state`` gives the model's and the
+  optimiser's state dicts back.
+
+Loading never unpickles and never runs code from the file: the file must be a regular
+file of at most 256 MiB, its header strict JSON of at most 1 MiB, every tensor the
+described network needs present with its shape, as float32 and finite (NaN or infinite
+weights are refused), and nothing else. Each fault is a ``ValueError`` naming the file
+and the entry. A checkpoint of the old format (a ``torch.save`` archive, which could run
+code) is refused with the command that converts a file you trust
+(``flatland-ma checkpoint convert OLD NEW``). ``write_checkpoint`` (used by the baselines)
+writes one; ``CheckpointPolicy`` plays one, without the training code::
+
+    policy = CheckpointPolicy("runs/ppo/fruits_poisons/seed_0.safetensors")
     action = policy.act(observation)
 
-torch is needed (the ``train`` extra); it is imported only when a checkpoint is used.
+torch and safetensors are needed (the ``train`` extra); they are imported only when a
+checkpoint is used.
 """
 
 from __future__ import annotations
 
-import io
-import os
+import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-FORMAT = "flatland_ma.policy"
-VERSION = 1
+from flatland_ma.policies.checkpoint_spec import (
+    FORMAT,
+    METADATA_KEY,
+    VERSION,
+    check_description,
+    space_description,
+)
+from flatland_ma.policies.tensor_file import (
+    decode_tree,
+    encode_tree,
+    read_tensor_file,
+    strict_json,
+    write_tensor_file,
+)
+
+SUFFIX = ".safetensors"
+MODEL, OPTIMIZER = "model/", "optimizer"
+"""The names of the network's tensors begin with MODEL; the optimiser's with OPTIMIZER."""
+__all__ = ["FORMAT", "VERSION", "CheckpointPolicy", "read_checkpoint", "write_checkpoint"]
 
 
 def write_checkpoint(
     path: str | Path,
     network: Any,
-    example: np.ndarray,
     *,
     scenario: str,
     observation_space: Any,
     action_space: Any,
+    optimizer: dict | None = None,
     extra: dict | None = None,
 ) -> Path:
-    """Save ``network`` (a torch module from a batch of raw observations like ``example``,
-    shape (batch, ...), or a dict of such batches for a ``Dict`` space, to logits) with
-    the facts needed to play it; ``extra`` holds anything else to keep (arguments, the
-    trainer's state). For a ``MultiDiscrete`` action space the logits of its components
-    come joined along the last axis. Written to a temporary file and moved into place, so
-    a reader never sees half a checkpoint."""
-    import torch
-    from torch.utils._pytree import tree_map
+    """Save ``network`` (a ``policies.networks`` network: it has ``kind`` and
+    ``arguments()``) for these spaces, the optimiser's ``state_dict()`` if given, and
+    ``extra`` entries of the description (``algorithm``, ``args``, ``trained_with``, ...:
+    JSON). The description is checked as a reader will check it, and the network rebuilt
+    from it must have the same tensors. Written to a temporary file and moved into place."""
+    from flatland_ma.policies.networks import build_network
 
-    batch = torch.export.Dim("batch")
-
-    def two(x) -> torch.Tensor:  # export needs an example batch of two to leave it free
-        x = torch.as_tensor(np.ascontiguousarray(x[:2]))
-        return torch.cat([x, x]) if len(x) == 1 else x
-
-    inputs = tree_map(two, example)
-    network.eval()
-    try:
-        program = torch.export.export(
-            network, (inputs,), dynamic_shapes=(tree_map(lambda _: {0: batch}, inputs),)
-        )
-    finally:
-        network.train()
-    buffer = io.BytesIO()
-    torch.export.save(program, buffer)
-    data = {
+    path = Path(path)
+    description = {
         "format": FORMAT,
         "version": VERSION,
         "scenario": scenario,
         "observation_space": str(observation_space),
         "action_space": str(action_space),
+        "spaces": {
+            "observation": space_description(observation_space),
+            "action": space_description(action_space),
+        },
         "action_sizes": _action_sizes(action_space),
-        "program": buffer.getvalue(),
+        "network": {"kind": network.kind, "arguments": network.arguments()},
         **(extra or {}),
     }
-    path = Path(path)
+    tensors = {MODEL + name: t for name, t in network.state_dict().items()}
+    if optimizer is not None:
+        description["optimizer"] = encode_tree(optimizer, OPTIMIZER, tensors)
+    text = json.dumps(description, allow_nan=False)
+    info = check_description(path, json.loads(text))
+    rebuilt = build_network(info["network"]["kind"], info["spaces"], info["network"]["arguments"])
+    want = {name: tuple(t.shape) for name, t in rebuilt.state_dict().items()}
+    have = {name: tuple(t.shape) for name, t in network.state_dict().items()}
+    if want != have:
+        raise ValueError(f"{path}: the network's tensors are not those its description builds")
     path.parent.mkdir(parents=True, exist_ok=True)
-    part = path.with_name(path.name + ".part")
-    torch.save(data, part)
-    os.replace(part, path)
+    write_tensor_file(path, tensors, {METADATA_KEY: text})
     return path
 
 
@@ -86,27 +110,122 @@ def _action_sizes(space: Any) -> list[int]:
     return [int(space.n)] if nvec is None else [int(n) for n in np.asarray(nvec).ravel()]
 
 
-def read_checkpoint(path: str | Path) -> dict:
-    """The checkpoint's dict, checked to be one; errors name the file."""
+def _description(path: Path, metadata: dict[str, str]) -> dict:
+    if METADATA_KEY not in metadata:
+        raise ValueError(f"{path}: not a flatland_ma policy checkpoint (no {METADATA_KEY!r})")
     try:
-        import torch
+        data = strict_json(metadata[METADATA_KEY])
+    except (ValueError, RecursionError) as err:
+        raise ValueError(f"{path}: its description is not JSON ({err})") from None
+    return check_description(path, data)
+
+
+def _needs_torch(path: str | Path) -> None:
+    try:
+        import safetensors  # noqa: F401
+        import torch  # noqa: F401
     except ImportError as err:
         raise ValueError(
-            f"{path}: playing a checkpoint needs torch (pip install 'flatland-ma[train]')"
+            f"{path}: playing a checkpoint needs torch and safetensors "
+            "(pip install 'flatland-ma[train]')"
         ) from err
-    if not Path(path).is_file():
-        raise ValueError(f"{path}: no such checkpoint file")
+
+
+def read_checkpoint(path: str | Path) -> dict:
+    """The checkpoint's description (a dict; its tensors are not read), checked; errors
+    name the file and the entry."""
+    _needs_torch(path)
+    return read_tensor_file(path, tensors=False, check=lambda m: _description(Path(path), m))[0]
+
+
+def load_checkpoint(path: str | Path) -> tuple[dict, Any, dict]:
+    """The description, the network rebuilt with the file's weights (in eval mode, no
+    gradients) and the trainer's state (``read_trainer_state``), each checked."""
+    _needs_torch(path)
+    from flatland_ma.policies.networks import build_network
+
+    path = Path(path)
+    info, tensors = read_tensor_file(path, check=lambda m: _description(path, m))
+    kind, arguments = info["network"]["kind"], info["network"]["arguments"]
     try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as err:  # a file torch cannot read: say which and why
-        raise ValueError(f"{path}: not a checkpoint torch can read ({err})") from None
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise ValueError(f"{path}: not a flatland_ma policy checkpoint")
-    if data.get("version") != VERSION:
+        network = build_network(kind, info["spaces"], arguments)
+    except (ValueError, RuntimeError) as err:
         raise ValueError(
-            f"{path}: checkpoint version {data.get('version')}, this flatland_ma reads {VERSION}"
+            f"{path}: network: the spaces and arguments make no {kind} ({err})"
+        ) from None
+    weights = _weights(path, tensors, network.state_dict())
+    network.load_state_dict(weights, strict=True, assign=True)
+    network.eval().requires_grad_(False)
+    _probe(path, info, network)
+    optimizer = None
+    if info["optimizer"] is not None:
+        optimizer = decode_tree(info["optimizer"], tensors, f"{path}: optimizer")
+    stray = set(tensors) - {MODEL + name for name in weights} - _named(info["optimizer"])
+    if stray:
+        raise ValueError(f"{path}: tensor {sorted(stray)[0]!r}: not part of the checkpoint")
+    return info, network, {"model": weights, "optimizer": optimizer}
+
+
+def _weights(path: Path, tensors: dict, want: dict) -> dict:
+    """The network's tensors from the file's, each checked against the rebuilt network's."""
+    import torch
+
+    weights = {}
+    for name, like in want.items():
+        where = f"{path}: tensor {MODEL + name!r}"
+        tensor = tensors.get(MODEL + name)
+        if tensor is None:
+            raise ValueError(f"{where}: missing (the described network needs it)")
+        if tuple(tensor.shape) != tuple(like.shape):
+            raise ValueError(
+                f"{where}: shape {list(tensor.shape)}, the described network needs "
+                f"{list(like.shape)}"
+            )
+        if tensor.dtype != torch.float32:
+            raise ValueError(f"{where}: dtype {tensor.dtype}, the network needs float32")
+        if not bool(torch.isfinite(tensor).all()):
+            raise ValueError(f"{where}: holds NaN or infinite weights")
+        weights[name] = tensor
+    return weights
+
+
+def _named(code: Any) -> set[str]:
+    """The tensor names a JSON tree from ``encode_tree`` refers to."""
+    if isinstance(code, list):
+        return set().union(*map(_named, code)) if code else set()
+    if isinstance(code, dict):
+        if set(code) == {"tensor"} and isinstance(code["tensor"], str):
+            return {code["tensor"]}
+        return set().union(*map(_named, code.values())) if code else set()
+    return set()
+
+
+def _probe(path: Path, info: dict, network: Any) -> None:
+    """One batch of zeros through the network: its logits must fit the action space."""
+    import torch
+
+    observation = info["spaces"]["observation"]
+    if observation["type"] == "Box":
+        zeros: Any = torch.zeros((1, *observation["shape"]))
+    else:
+        zeros = {k: torch.zeros((1, *s["shape"])) for k, s in observation["spaces"].items()}
+    try:
+        with torch.inference_mode():
+            logits = network.logits(zeros)
+    except RuntimeError as err:
+        raise ValueError(f"{path}: network: it cannot read its observation space ({err})") from None
+    want = (1, sum(info["action_sizes"]))
+    if tuple(logits.shape) != want:
+        raise ValueError(
+            f"{path}: network: logits of shape {list(logits.shape)[1:]}, the action space "
+            f"needs {want[1]}"
         )
-    return data
+
+
+def read_trainer_state(path: str | Path) -> dict:
+    """``{"model": state_dict, "optimizer": state_dict or None}`` for resuming training,
+    checked as ``load_checkpoint`` checks them."""
+    return load_checkpoint(path)[2]
 
 
 class CheckpointPolicy:
@@ -114,12 +233,9 @@ class CheckpointPolicy:
     generator, or takes the most likely action when ``greedy``."""
 
     def __init__(self, path: str | Path, greedy: bool = False, seed: int | None = None):
-        import torch
-
         self.path = Path(path)
-        self.data = read_checkpoint(path)
+        self.data, self.network, _ = load_checkpoint(path)
         self.scenario: str = self.data["scenario"]
-        self.program = torch.export.load(io.BytesIO(self.data["program"])).module()
         self.greedy = greedy
         self.rng = np.random.default_rng(seed)
         self._padding: tuple | None = None
@@ -161,10 +277,9 @@ class CheckpointPolicy:
         action = self.act_batch(batch)[0]
         return int(action) if np.ndim(action) == 0 else action
 
-    def act_batch(self, observations) -> np.ndarray:
-        """One action per row of ``observations`` (an array, or a dict of arrays for a
-        ``Dict`` space): shape (batch,) for a ``Discrete`` space, (batch, components) for
-        a ``MultiDiscrete`` one."""
+    def logits(self, observations) -> np.ndarray:
+        """The network's logits for a batch of raw observations (every action component's,
+        joined), as float64."""
         import torch
 
         if isinstance(observations, dict):
@@ -172,11 +287,17 @@ class CheckpointPolicy:
         else:
             inputs = torch.as_tensor(observations, dtype=torch.float32)
         with torch.inference_mode():
-            logits = self.program(inputs).double().numpy()
-        sizes = self.data.get("action_sizes") or [logits.shape[1]]
+            return self.network.logits(inputs).double().numpy()
+
+    def act_batch(self, observations) -> np.ndarray:
+        """One action per row of ``observations`` (an array, or a dict of arrays for a
+        ``Dict`` space): shape (batch,) for a ``Discrete`` space, (batch, components) for
+        a ``MultiDiscrete`` one."""
+        logits = self.logits(observations)
+        sizes = self.data["action_sizes"]
         parts = np.split(logits, np.cumsum(sizes)[:-1], axis=1)
         actions = np.stack([self._choose(part) for part in parts], axis=1)
-        multi = str(self.data["action_space"]).startswith("MultiDiscrete")
+        multi = self.data["spaces"]["action"]["type"] == "MultiDiscrete"
         return actions if multi else actions[:, 0]
 
     def _choose(self, logits: np.ndarray) -> np.ndarray:

@@ -3,8 +3,8 @@ checkpoint's path. Every one of them is a ``Policy``."""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from flatland_ma.envs.parallel import FlatlandParallelEnv
@@ -45,8 +45,10 @@ SHIPPED: dict[str, Callable] = {
 
 
 def is_checkpoint(name: str) -> bool:
-    """Whether ``name`` is meant as a checkpoint file rather than a shipped policy."""
-    return name not in SHIPPED and (name.endswith(".pt") or Path(name).is_file())
+    """Whether ``name`` is meant as a checkpoint file rather than a shipped policy (a
+    ``.pt`` file of the old format is one too: loading it says how to convert it)."""
+    suffixes = (".safetensors", ".pt")
+    return name not in SHIPPED and (name.endswith(suffixes) or os.path.lexists(name))
 
 
 def make_policy(name: str, env: FlatlandParallelEnv, agent: str, seed: int | None = None):
@@ -57,7 +59,7 @@ def make_policy(name: str, env: FlatlandParallelEnv, agent: str, seed: int | Non
         return SHIPPED[name](env, agent, seed)
     if not is_checkpoint(name):
         raise ValueError(
-            f"no policy {name!r}: one of {', '.join(SHIPPED)}, or a checkpoint file (.pt)"
+            f"no policy {name!r}: one of {', '.join(SHIPPED)}, or a checkpoint file (.safetensors)"
         )
     policy = CheckpointPolicy(name, seed=seed)
     policy.bind(env, agent)

@@ -1,0 +1,297 @@
+"""The networks a checkpoint can hold, one definition for training and for play.
+
+A checkpoint names its network by ``kind`` with its constructor arguments (plain JSON)
+and the spaces it reads and acts in; ``build_network`` rebuilds it from this code, never
+from the file. The baselines train these same classes (``baselines.networks.Agent`` adds
+PPO's sampling and value to ``PPONetwork``; ``baselines.a3c`` trains ``ActorCritic``).
+
+- ``ppo``, ``PPONetwork``: each observation entry encoded by its shape - a first-person
+  image, (rays, channels), by 1-D convolutions on its first ``channels`` channels; a map,
+  (height, width, channels), by 2-D convolutions; anything else (the heard messages,
+  proprioception, ...) flattened. The encodings are joined and pass one fully connected
+  layer (``hidden`` units), then one linear head whose logits hold every action
+  component's, joined. With ``state_size`` the value comes from a critic of its own on the
+  world's global state (MAPPO's centralised critic), which play never reads.
+- ``a3c``, ``ActorCritic``: the paper's A3C network, Conv1D(32, 8) - Conv1D(48, 4) -
+  Conv1D(64, 3) - Dense(hidden), ELU, then the policy's logits and the value.
+
+Every network maps a batch of raw observations, exactly as the env gives them (an array,
+or a dict of arrays for a ``Dict`` space), to logits with ``logits``. This module imports
+torch; ``flatland_ma`` imports it only when a checkpoint is used.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TypeVar
+
+import numpy as np
+import torch
+from torch import nn
+
+from flatland_ma.sensors.hearing import MESSAGES
+
+CONV_CHANNELS = (32, 48, 64)
+CONV_KERNELS = (8, 4, 3)
+"""The paper's 1-D trunk: filters and kernel of each layer, stride 1."""
+STRIDED = ((32, 8, 4), (64, 4, 2), (64, 3, 1))
+"""The strided 1-D trunk's layers: (filters, kernel, stride)."""
+MAP = ((16, 8, 4), (32, 4, 2))
+"""The 2-D trunk's layers for maps: (filters, kernel, stride); a 64 x 64 map becomes
+32 channels of 6 x 6."""
+BOX = ""
+"""The entry name of an observation that is one ``Box`` (not a ``Dict``)."""
+
+
+def conv_trunk(in_channels: int, activation: type[nn.Module] = nn.ReLU) -> nn.Sequential:
+    """The paper's 1-D convolutions: (32 filters, kernel 8) - (48, 4) - (64, 3), stride 1,
+    no padding: a 64-ray image becomes 64 channels of length 52."""
+    layers, channels = [], in_channels
+    for out_channels, kernel in zip(CONV_CHANNELS, CONV_KERNELS):
+        layers += [nn.Conv1d(channels, out_channels, kernel), activation()]
+        channels = out_channels
+    return nn.Sequential(*layers)
+
+
+def trunk_length(rays: int) -> int:
+    """Length of the paper trunk's output for an image of ``rays`` rays."""
+    return rays - sum(k - 1 for k in CONV_KERNELS)
+
+
+def keras_init(module: nn.Module) -> None:
+    """Keras' default initialisation (Glorot uniform weights, zero biases), for the
+    baselines whose reference implementation is written in Keras."""
+    for layer in module.modules():
+        if isinstance(layer, (nn.Conv1d, nn.Linear)) and layer.bias is not None:
+            nn.init.xavier_uniform_(layer.weight)
+            nn.init.zeros_(layer.bias)
+
+
+Layer = TypeVar("Layer", bound=nn.Conv1d | nn.Conv2d | nn.Linear)
+
+
+def layer_init(layer: Layer, std: float = np.sqrt(2), bias: float = 0.0) -> Layer:
+    """CleanRL's orthogonal initialisation."""
+    nn.init.orthogonal_(layer.weight, std)
+    if layer.bias is not None:
+        nn.init.constant_(layer.bias, bias)
+    return layer
+
+
+def strided_trunk(channels: int, rays: int) -> tuple[nn.Sequential, int]:
+    """The strided conv trunk and the length of its output."""
+    layers, length = [], rays
+    for filters, kernel, stride in STRIDED:
+        layers += [nn.Conv1d(channels, filters, kernel, stride), nn.ReLU()]
+        channels, length = filters, (length - kernel) // stride + 1
+    if length < 1:
+        raise ValueError(f"an image of {rays} rays is too short for the strided trunk")
+    return nn.Sequential(*layers), channels * length
+
+
+class ImageInput(nn.Module):
+    """A first-person image (batch, rays, channels) through 1-D convolutions."""
+
+    def __init__(self, shape: Sequence[int], channels: int, network: str):
+        super().__init__()
+        rays, self.channels = shape[0], min(channels, shape[1])
+        if network == "paper":
+            if trunk_length(rays) // 2 < 1:
+                raise ValueError(f"an image of {rays} rays is too short for the paper's trunk")
+            self.trunk = nn.Sequential(conv_trunk(self.channels), nn.MaxPool1d(2))
+            self.features = 64 * (trunk_length(rays) // 2)
+        else:
+            self.trunk, self.features = strided_trunk(self.channels, rays)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.trunk(x[..., : self.channels].transpose(-1, -2)).flatten(1)
+
+
+class MapInput(nn.Module):
+    """A map (batch, height, width, channels) through 2-D convolutions."""
+
+    def __init__(self, shape: Sequence[int]):
+        super().__init__()
+        height, width, channels = shape
+        layers = []
+        for filters, kernel, stride in MAP:
+            layers += [nn.Conv2d(channels, filters, kernel, stride), nn.ReLU()]
+            channels = filters
+            height, width = (height - kernel) // stride + 1, (width - kernel) // stride + 1
+        if height < 1 or width < 1:
+            raise ValueError(f"a map of {tuple(shape)} is too small for the 2-D trunk {MAP}")
+        self.trunk = nn.Sequential(*layers)
+        self.features = channels * height * width
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.trunk(x.permute(0, 3, 1, 2)).flatten(1)
+
+
+class FlatInput(nn.Module):
+    """Any other entry, flattened."""
+
+    def __init__(self, shape: Sequence[int]):
+        super().__init__()
+        self.features = int(np.prod(shape))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return x.flatten(1)
+
+
+def entry_input(key: str, shape: Sequence[int], channels: int, network: str) -> nn.Module:
+    """The encoder of one observation entry, chosen by its shape (the heard messages,
+    one row per speaker, are not an image)."""
+    if len(shape) == 2 and shape[1] >= 3 and key != MESSAGES:
+        return ImageInput(shape, channels, network)
+    if len(shape) == 3:
+        return MapInput(shape)
+    return FlatInput(shape)
+
+
+class PPONetwork(nn.Module):
+    """Encoders per observation entry - Dense(hidden), then the policy's head (every action
+    component's logits, joined) and the value's; orthogonal initialisation as in CleanRL.
+    ``entries`` maps each entry of a ``Dict`` observation to its shape in the space's
+    order, or is ``{BOX: shape}`` for one ``Box``; ``sizes`` are the action components'
+    numbers of choices."""
+
+    kind = "ppo"
+
+    def __init__(
+        self,
+        entries: Mapping[str, Sequence[int]],
+        sizes: Sequence[int],
+        hidden: int = 128,
+        channels: int = 3,
+        network: str = "strided",
+        state_size: int = 0,
+    ):
+        super().__init__()
+        self.dict_input = list(entries) != [BOX]
+        self.hidden, self.channels, self.network = hidden, channels, network
+        self.inputs = nn.ModuleDict(
+            {
+                key or "observation": entry_input(key, shape, channels, network)
+                for key, shape in entries.items()
+            }
+        )
+        features = sum(int(module.features) for module in self.inputs.values())  # type: ignore[arg-type]
+        self.body = nn.Sequential(nn.Linear(features, hidden), nn.ReLU())
+        for layer in [*self.inputs.modules(), *self.body.modules()]:
+            if isinstance(layer, (nn.Conv1d, nn.Conv2d, nn.Linear)):
+                layer_init(layer)
+        self.sizes = tuple(int(n) for n in sizes)
+        self.actor = layer_init(nn.Linear(hidden, sum(self.sizes)), std=0.01)
+        self.state_size = state_size
+        """The length of the centralised critic's input; 0: the value reads the features."""
+        if state_size:
+            self.critic = nn.Sequential(
+                layer_init(nn.Linear(state_size, hidden)),
+                nn.ReLU(),
+                layer_init(nn.Linear(hidden, hidden)),
+                nn.ReLU(),
+                layer_init(nn.Linear(hidden, 1), std=1.0),
+            )
+        else:
+            self.critic = layer_init(nn.Linear(hidden, 1), std=1.0)
+
+    def arguments(self) -> dict:
+        """The constructor's arguments besides the spaces, as a checkpoint records them."""
+        return {
+            "hidden": self.hidden,
+            "channels": self.channels,
+            "network": self.network,
+            "state_size": self.state_size,
+        }
+
+    def features(self, observation) -> torch.Tensor:
+        if self.dict_input:
+            parts = [module(observation[key]) for key, module in self.inputs.items()]
+        else:
+            parts = [self.inputs["observation"](observation)]
+        return self.body(torch.cat(parts, dim=1) if len(parts) > 1 else parts[0])
+
+    def forward(self, observation) -> torch.Tensor:
+        """The policy's logits, every head's joined along the last axis."""
+        return self.actor(self.features(observation))
+
+    def logits(self, observation) -> torch.Tensor:
+        return self(observation)
+
+
+class ActorCritic(nn.Module):
+    """A3C's network: Conv1D(32, 8) - Conv1D(48, 4) - Conv1D(64, 3) - Dense(hidden), ELU
+    activations as in universe-starter-agent, then a softmax policy and a value. It reads
+    (batch, channels, rays); ``logits`` reads the raw observation (batch, rays, 4) and
+    keeps its first ``channels`` channels. Glorot-uniform hidden layers; output rows of
+    norm 0.01 (policy) and 1 (value), as that implementation initialises them."""
+
+    kind = "a3c"
+
+    def __init__(self, channels: int, rays: int, actions: int, hidden: int):
+        super().__init__()
+        if trunk_length(rays) < 1:
+            raise ValueError(f"an image of {rays} rays is too short for the paper's trunk")
+        self.channels, self.hidden = channels, hidden
+        self.body = nn.Sequential(
+            conv_trunk(channels, nn.ELU),
+            nn.Flatten(),
+            nn.Linear(64 * trunk_length(rays), hidden),
+            nn.ELU(),
+        )
+        self.policy = nn.Linear(hidden, actions)
+        self.value = nn.Linear(hidden, 1)
+        keras_init(self)
+        with torch.no_grad():
+            for head, norm in ((self.policy, 0.01), (self.value, 1.0)):
+                weight = torch.randn_like(head.weight)
+                head.weight.copy_(weight * norm / weight.norm(dim=1, keepdim=True))
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        h = self.body(x)
+        return self.policy(h), self.value(h).squeeze(-1)
+
+    def arguments(self) -> dict:
+        return {"channels": self.channels, "hidden": self.hidden}
+
+    def logits(self, observation: torch.Tensor) -> torch.Tensor:
+        return self(observation[..., : self.channels].transpose(-1, -2))[0]
+
+
+def box_entries(observation: dict) -> dict[str, list[int]]:
+    """The shape of each entry of an observation space described as JSON (see
+    ``policies.checkpoint``): ``{BOX: shape}`` for a ``Box``."""
+    if observation["type"] == "Box":
+        return {BOX: list(observation["shape"])}
+    return {key: list(space["shape"]) for key, space in observation["spaces"].items()}
+
+
+def _ppo(spaces: dict, arguments: dict) -> nn.Module:
+    action = spaces["action"]
+    sizes = [action["n"]] if action["type"] == "Discrete" else list(action["nvec"])
+    return PPONetwork(box_entries(spaces["observation"]), sizes, **arguments)
+
+
+def _a3c(spaces: dict, arguments: dict) -> nn.Module:
+    observation, action = spaces["observation"], spaces["action"]
+    if observation["type"] != "Box" or len(observation["shape"]) != 2:
+        raise ValueError("an a3c network reads one Box image of (rays, channels)")
+    if action["type"] != "Discrete":
+        raise ValueError("an a3c network acts in a Discrete space")
+    rays, depth = observation["shape"]
+    if arguments["channels"] > depth:
+        raise ValueError(f"it reads {arguments['channels']} channels of an image of {depth}")
+    return ActorCritic(arguments["channels"], rays, action["n"], arguments["hidden"])
+
+
+BUILDERS = {"ppo": _ppo, "a3c": _a3c}
+"""Network kind -> its maker from (spaces, arguments), both checked JSON."""
+
+
+def build_network(kind: str, spaces: dict, arguments: dict) -> nn.Module:
+    """The network ``kind`` for these spaces and arguments, its tensors on the ``meta``
+    device (no memory, no initialisation worth keeping): load its weights with
+    ``load_state_dict(..., assign=True)``. ``ValueError`` if the spaces and arguments
+    make no such network."""
+    with torch.device("meta"):
+        return BUILDERS[kind](spaces, arguments)
