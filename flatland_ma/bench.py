@@ -8,10 +8,11 @@ before the clock starts.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import gymnasium
 
+from flatland_ma.bench_load import Load, LoadMeter
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.registration import gym_id
 
@@ -23,6 +24,10 @@ class BenchResult:
     env_steps_per_s: float
     bare_steps_per_s: float
     """Environment-step equivalents per second of ``space.step`` alone (x substeps)."""
+    threads: str = ""
+    """How the row's work was spread: processes x threads, and the ray kernel's choice."""
+    load: Load | None = None
+    """What other processes did to the machine while the row ran."""
 
     @property
     def agent_steps_per_s(self) -> float:
@@ -127,24 +132,38 @@ BENCHED = (
 
 
 def run(steps: int = 20_000) -> list[BenchResult]:
-    return [bench(scenario, steps) for bench, scenario in BENCHED]
+    """Every row of ``BENCHED``, each with the load other processes put on the machine
+    while it ran."""
+    from flatland_ma.sensors.threads import fit_threads, usable_cpus
+
+    meter, results = LoadMeter(usable_cpus()), []
+    for bench, scenario in BENCHED:
+        meter.start()
+        result = bench(scenario, steps)
+        threads = f"1 x {fit_threads()}"
+        threads = threads if bench is bench_batched else "1 x 1"
+        results.append(replace(result, threads=threads, load=meter.stop()))
+    return results
 
 
 def format_table(results: list[BenchResult]) -> str:
     header = (
         f"{'environment':44} {'agents':>6} {'env steps/s':>12} {'agent steps/s':>14} "
-        f"{'bare space.step/s':>18} {'env/bare':>9}"
+        f"{'bare space.step/s':>18} {'env/bare':>9}  {'threads':8} machine"
     )
     lines = [header, "-" * len(header)]
     for r in results:
         lines.append(
             f"{r.label:44} {r.agents:>6} {r.env_steps_per_s:>12,.0f} {r.agent_steps_per_s:>14,.0f} "
-            f"{r.bare_steps_per_s:>18,.0f} {r.physics_share:>8.0%}"
+            f"{r.bare_steps_per_s:>18,.0f} {r.physics_share:>8.0%}  {r.threads:8} "
+            f"{r.load.note() if r.load else ''}"
         )
     lines.append(
         "bare space.step/s: environment-step equivalents (substeps x space.step) per second "
         "on the same world. Rates include resets (a new layout each episode where the "
-        "scenario asks for one). Batched rows: env steps are world steps, all worlds together."
+        "scenario asks for one). Batched rows: env steps are world steps, all worlds "
+        "together. threads: processes x threads. machine: cores other processes kept busy "
+        "during the row (BUSY: the row understates the code)."
     )
     lines += [f"{text}: {ratio:.2f}x slower" for text, ratio in comparisons(results)]
     return "\n".join(lines)

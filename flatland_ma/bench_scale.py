@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from flatland_ma.bench import BenchResult, bare_space_rate
+from flatland_ma.bench_load import LoadMeter
 
 WORLDS = (1, 16, 256, 1024)
 SECONDS = 3.0
@@ -51,12 +52,16 @@ def bench_worlds(
         env.action_space.seed(0)
         actions = [env.action_space.sample() for _ in range(16)]
         env.step(actions[0])  # warm-up
+        meter = LoadMeter(cores())
+        meter.start()
         rounds, start = 0, time.perf_counter()
         while rounds < 3 or time.perf_counter() - start < seconds:
             env.step(actions[rounds % len(actions)])
             rounds += 1
         rate = rounds * worlds / (time.perf_counter() - start)
+        load = meter.stop()
         processes, agents = getattr(env, "num_shards", 1), env.agents_per_world
+        threads = f"{processes} x 1" if processes > 1 else _kernel_threads(env)
     finally:
         env.close()
     from flatland_ma.envs.parallel import FlatlandParallelEnv
@@ -64,7 +69,19 @@ def bench_worlds(
     bare = bare_space_rate(FlatlandParallelEnv(scenario, **overrides), 2000) * processes
     where = "1 process" if processes == 1 else f"{processes} processes"
     label = f"batched {scenario} x {worlds}, {where}"
-    return BenchResult(label, agents, rate, bare)
+    return BenchResult(label, agents, rate, bare, threads, load)
+
+
+def _kernel_threads(env) -> str:
+    """``1 x N``: one process whose ray kernel may use N threads, and whether it chose
+    them (``threads.Chooser``) at the row's end."""
+    import numba
+
+    from flatland_ma.sensors.threads import Chooser
+
+    function = env._rays._function
+    using = "all" if isinstance(function, Chooser) and function.parallel else "1"
+    return f"1 x {numba.get_num_threads()} (using {using})"
 
 
 @dataclass
@@ -134,18 +151,22 @@ def run(
 def format_table(results: list[BenchResult], training: list[TrainingRate]) -> str:
     header = (
         f"{'batched env':48} {'agents':>6} {'world steps/s':>14} {'agent steps/s':>14} "
-        f"{'bare physics/s':>15} {'cost / bare':>12}"
+        f"{'bare physics/s':>15} {'cost / bare':>12}  {'threads':18} machine"
     )
     lines = [header, "-" * len(header)]
     for r in results:
         lines.append(
             f"{r.label:48} {r.agents:>6} {r.env_steps_per_s:>14,.0f} {r.agent_steps_per_s:>14,.0f} "
-            f"{r.bare_steps_per_s:>15,.0f} {1 / r.physics_share:>11.1f}x"
+            f"{r.bare_steps_per_s:>15,.0f} {1 / r.physics_share:>11.1f}x  {r.threads:18} "
+            f"{r.load.note() if r.load else ''}"
         )
     lines.append(
         "bare physics/s: world-step equivalents of space.step alone on the same worlds, "
         "on as many cores as the row's processes. cost / bare: time per world-step over the "
-        "bare physics' time."
+        "bare physics' time. threads: processes x threads each (the ray kernel uses all "
+        "of its threads or one, whichever is faster under the load). machine: cores that "
+        "other processes kept busy during the row; BUSY rows were taken while other work "
+        "held the cores, so they understate the code."
     )
     for t in training:
         rate = f"{t.agent_steps_per_s:,.0f} agent-steps/s" if t.agent_steps_per_s else t.note
@@ -162,6 +183,10 @@ def as_json(results: list[BenchResult], training: list[TrainingRate]) -> dict:
                 "world_steps_per_s": r.env_steps_per_s,
                 "agent_steps_per_s": r.agent_steps_per_s,
                 "bare_space_step_per_s": r.bare_steps_per_s,
+                "threads": r.threads,
+                "other_cores": r.load.other_cores if r.load else None,
+                "load_average": r.load.load_average if r.load else None,
+                "busy": r.load.busy if r.load else None,
             }
             for r in results
         ],
