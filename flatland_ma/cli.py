@@ -22,6 +22,7 @@ from flatland_ma.options import OptionError
 from flatland_ma.policies import convert_command
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
+from flatland_ma.studio import command as studio
 
 DESCRIPTION = (
     "Scenarios of a multi-agent, first-person 2-D world: list and check them, watch and "
@@ -158,6 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
     evaluation.add_parser(commands)
     lifelong.add_parser(commands)
     convert_command.add_parser(commands)
+    studio.add_parser(commands)
     return parser
 
 
@@ -180,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
             "play": options.check_world,
             "bench": bench_command.check,
             "evaluate": evaluation.check,
+            "studio": studio.check,
         }
         if args.command in checks:
             try:
@@ -198,6 +201,7 @@ def main(argv: list[str] | None = None) -> int:
         "evaluate": evaluation.run,
         "lifelong": lifelong.run,
         "checkpoint": convert_command.run,
+        "studio": studio.run,
     }[args.command]
     try:
         status = command(args)

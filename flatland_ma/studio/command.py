@@ -1,0 +1,132 @@
+"""``flatland-ma studio``: the studio's options, and the server (uvicorn) that runs it."""
+
+from __future__ import annotations
+
+import argparse
+import secrets
+import sys
+from pathlib import Path
+
+from flatland_ma import options
+from flatland_ma.options import OptionError
+from flatland_ma.studio.config import LOOPBACK, Limits, StudioConfig
+
+DEFAULT_PORT = 8765
+DESCRIPTION = (
+    "A local web app to design, watch and play scenarios in a browser: a gallery, an "
+    "editor with completion and located errors, watching policies and playing at the "
+    "keyboard. It listens on 127.0.0.1; with --host another address, it prints a token "
+    "that every request must carry. Files are read and written only inside --scenarios "
+    "folders; checkpoints are loaded only from --checkpoints. On a remote machine, forward "
+    "the port: ssh -L 8765:127.0.0.1:8765 server, then open http://127.0.0.1:8765/."
+)
+
+
+def add_parser(commands) -> argparse.ArgumentParser:
+    studio = commands.add_parser(
+        "studio", help="design, watch and play scenarios in a browser", description=DESCRIPTION
+    )
+    studio.add_argument(
+        "--port",
+        type=options.count(1, 65535, "a TCP port"),
+        default=DEFAULT_PORT,
+        help=f"the port to listen on (default: {DEFAULT_PORT})",
+    )
+    studio.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="the address to listen on (default: 127.0.0.1, this machine only); any other "
+        "needs the token the studio prints",
+    )
+    studio.add_argument(
+        "--scenarios",
+        type=options.existing_folder,
+        action="append",
+        default=None,
+        metavar="DIR",
+        help="a folder of scenario files to list, edit and save into (repeat for more)",
+    )
+    studio.add_argument(
+        "--checkpoints",
+        type=options.existing_folder,
+        default=None,
+        metavar="DIR",
+        help="a folder of checkpoint files (.safetensors) the policies may play",
+    )
+    studio.add_argument(
+        "--scores",
+        type=options.output_file(".csv"),
+        default="play_scores.csv",
+        help="CSV that each played episode's scores are appended to (default: play_scores.csv)",
+    )
+    studio.add_argument(
+        "--episodes",
+        type=options.positive(64),
+        default=Limits.episodes,
+        help=f"episodes (watch or play) at once (default: {Limits.episodes})",
+    )
+    studio.add_argument(
+        "--fps",
+        type=options.number(0.0, 120.0),
+        default=Limits.fps,
+        help=f"frames a second an episode sends at most (default: {Limits.fps:g})",
+    )
+    return studio
+
+
+def check(args) -> None:
+    """A host is a name or an address without a port or spaces."""
+    host = args.host
+    if not host or len(host) > 253 or any(c in host for c in " /?#@") or host.count(":") == 1:
+        raise OptionError("--host", f"{host!r} is not an address to listen on")
+    try:
+        import starlette  # noqa: F401
+        import uvicorn  # noqa: F401
+    except ImportError:
+        raise OptionError(
+            "studio", "the studio needs its extra: pip install 'flatland-ma[studio]'"
+        ) from None
+
+
+def config_of(args) -> StudioConfig:
+    """The studio's configuration from its options (a token if not on the loopback)."""
+    local = args.host in LOOPBACK
+    return StudioConfig(
+        folders=tuple(Path(f) for f in (args.scenarios or [])),
+        checkpoints=args.checkpoints,
+        token=None if local else secrets.token_urlsafe(24),
+        scores=args.scores,
+        limits=Limits(episodes=args.episodes, fps=args.fps),
+    )
+
+
+def run(args) -> int:
+    import uvicorn
+
+    from flatland_ma.studio.app import create_app
+
+    config = config_of(args)
+    app = create_app(config, local=config.token is None)
+    shown = f"[{args.host}]" if ":" in args.host else args.host
+    url = f"http://{shown}:{args.port}/"
+    if config.token is not None:
+        url += f"?token={config.token}"
+        print("Listening beyond this machine: every request needs the token in this URL.")
+    print(f"flatland-ma studio: open {url}", flush=True)
+    limits = config.limits
+    uvicorn.run(
+        app,
+        host=args.host,
+        port=args.port,
+        log_level="warning",
+        ws_max_size=limits.file_bytes + limits.message_bytes,
+        limit_concurrency=limits.episodes + 64,
+        timeout_graceful_shutdown=2,
+    )
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    parser = argparse.ArgumentParser(prog="flatland-ma")
+    add_parser(parser.add_subparsers(dest="command"))
+    sys.exit(run(parser.parse_args(["studio", *sys.argv[1:]])))

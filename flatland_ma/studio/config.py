@@ -1,0 +1,45 @@
+"""What a studio may touch and how much it may do at once."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+LOOPBACK = ("127.0.0.1", "localhost", "::1")
+"""Addresses reachable from this machine only: bound to one, the studio asks no token."""
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Bounds on what clients may ask for (each one refused with a message past it)."""
+
+    episodes: int = 8
+    """Episodes (watch or play WebSockets) running at once."""
+    fps: float = 30.0
+    """Frames a second an episode sends at most."""
+    request_bytes: int = 512 * 1024
+    """An HTTP request's body (a scenario's YAML text travels in one)."""
+    message_bytes: int = 4096
+    """A WebSocket message from a client."""
+    file_bytes: int = 512 * 1024
+    """A scenario file read from or written to a folder."""
+    recorded_frames: int = 600
+    """Frames kept per episode for its GIF (the latest ones)."""
+    work: int = 2
+    """Scenario checks and pictures made at once (each takes a thread)."""
+    pictures: int = 256
+    """Gallery pictures kept in memory."""
+
+
+@dataclass(frozen=True)
+class StudioConfig:
+    """``folders``: where scenario files are listed, read and saved; ``checkpoints``: the
+    folder of checkpoint files policies may load; ``token``: what every request must carry
+    (None when bound to the loopback); ``scores``: the CSV each played episode's rows are
+    appended to (None: not written)."""
+
+    folders: tuple[Path, ...] = ()
+    checkpoints: Path | None = None
+    token: str | None = None
+    scores: Path | None = None
+    limits: Limits = field(default_factory=Limits)

@@ -1,0 +1,248 @@
+"""An episode's WebSocket: messages in (``studio.messages``), frames and state out.
+
+Each connection holds at most one episode, and the studio at most ``limits.episodes`` at
+once (one more is told so and closed). Frames go out at the speed asked for, never above
+``limits.fps``: a JSON ``state`` text message, then the picture as a binary message
+(JPEG, or PNG). The world is stepped and drawn in a worker thread, so the server goes on
+answering others meanwhile. A bad message, scenario or policy is answered with an
+``error`` message and the connection stays open.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import json
+import secrets
+from dataclasses import dataclass, field
+
+import anyio
+from pydantic import ValidationError
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from flatland_ma.play.keys import Keys
+from flatland_ma.scenario.errors import ScenarioError
+from flatland_ma.studio import messages
+from flatland_ma.studio.episodes import Play, Watch, resolve_policy
+from flatland_ma.studio.folders import FolderError
+from flatland_ma.studio.scenarios import encode, problem_json
+from flatland_ma.studio.workspace import Workspace
+
+CLOSE_BUSY = 1013
+"""WebSocket close code: try again later (every episode slot is taken)."""
+CLOSE_TOO_BIG = 1009
+
+
+@dataclass
+class Recording:
+    """The latest frames an episode sent (encoded), for its GIF."""
+
+    fps: float
+    image: str
+    frames: collections.deque = field(default_factory=collections.deque)
+
+
+class Hub:
+    """The studio's episodes: slots, and each one's recording while it is open."""
+
+    def __init__(self, workspace: Workspace):
+        self.workspace = workspace
+        self.limits = workspace.config.limits
+        self.running = 0
+        self.recordings: dict[str, Recording] = {}
+
+    async def serve(self, ws: WebSocket) -> None:
+        await ws.accept()
+        if self.running >= self.limits.episodes:
+            await _send_error(ws, f"busy: {self.limits.episodes} episodes run at once already")
+            await ws.close(CLOSE_BUSY)
+            return
+        self.running += 1
+        key = secrets.token_urlsafe(12)
+        try:
+            await Connection(self, ws, key).run()
+        finally:
+            self.running -= 1
+            self.recordings.pop(key, None)
+
+
+async def _send_error(ws: WebSocket, message: str, problems: list | None = None) -> None:
+    await ws.send_text(json.dumps({"type": "error", "message": message, "problems": problems}))
+
+
+class Connection:
+    """One page's episode: a reader of messages and a loop that sends frames."""
+
+    def __init__(self, hub: Hub, ws: WebSocket, key: str):
+        self.hub, self.ws, self.key = hub, ws, key
+        self.limits = hub.limits
+        self.episode: Watch | Play | None = None
+        self.start: messages.Start | None = None
+        self.fps = 10.0
+        self.running = False
+        self.steps_asked = 0
+        self.held: set[str] = set()
+        self.pressed: set[str] = set()
+        self.inbox: asyncio.Queue = asyncio.Queue(maxsize=64)
+
+    async def run(self) -> None:
+        reader = asyncio.create_task(self._read())
+        loop = asyncio.get_running_loop()
+        next_tick = loop.time()
+        try:
+            while True:
+                ticking = self.episode is not None and (
+                    self.running or self.steps_asked or self.episode.mode == "play"
+                )
+                timeout = max(0.0, next_tick - loop.time()) if ticking else None
+                try:
+                    message = await asyncio.wait_for(self.inbox.get(), timeout)
+                except asyncio.TimeoutError:
+                    next_tick = loop.time() + 1.0 / self.fps
+                    await self._tick()
+                    continue
+                if message is None:
+                    return
+                await self._handle(message)
+        finally:
+            reader.cancel()
+            if self.episode is not None:
+                self.episode.close()
+
+    async def _read(self) -> None:
+        """Messages into the inbox (None when the page leaves); a bad one is answered."""
+        try:
+            while True:
+                event = await self.ws.receive()
+                if event["type"] == "websocket.disconnect":
+                    break
+                text = event.get("text")
+                if text is None:
+                    await _send_error(self.ws, "messages are JSON text, not binary")
+                    continue
+                size, small = len(text.encode()), self.limits.message_bytes
+                too_big = (
+                    f"{size:,} bytes: a message holds {small:,} (a start, with its text, more)"
+                )
+                try:
+                    if size > small + self.limits.file_bytes:
+                        raise ValueError(too_big)
+                    message = messages.parse(text)
+                    if size > small and not isinstance(message, messages.Start):
+                        raise ValueError(too_big)
+                except (ValidationError, ValueError) as err:
+                    await _send_error(
+                        self.ws, too_big if size > small else messages.error_text(err)
+                    )
+                    continue
+                if isinstance(message, messages.KeysMessage):  # at once: keys are not queued
+                    self.held = set(message.held)
+                    self.pressed |= set(message.pressed)
+                    continue
+                await self.inbox.put(message)
+        except (WebSocketDisconnect, RuntimeError):
+            pass
+        finally:
+            await self.inbox.put(None)
+
+    async def _handle(self, message) -> None:
+        if isinstance(message, messages.Start):
+            await self._start(message, message.seed)
+        elif isinstance(message, messages.Reset):
+            if self.start is None:
+                await _send_error(self.ws, "reset before start: send a start message first")
+            else:
+                await self._start(self.start, message.seed)
+        elif isinstance(message, messages.Speed):
+            self.fps = min(message.fps, self.limits.fps)
+        elif self.episode is None:
+            await _send_error(self.ws, f"{message.type} before start: send start first")
+        elif message.type == "play":
+            self.running = True
+        elif message.type == "pause":
+            self.running, self.steps_asked = False, 0
+        elif message.type == "step":
+            self.running = False
+            self.steps_asked = min(self.steps_asked + 1, 1000)
+
+    async def _start(self, start: messages.Start, seed: int) -> None:
+        """A new episode (the old one, if any, is closed first)."""
+        if self.episode is not None:
+            self.episode.close()
+            self.episode = None
+        self.running, self.steps_asked = False, 0
+        try:
+            episode = await anyio.to_thread.run_sync(self._make, start, seed)
+        except ScenarioError as err:
+            problems = [problem_json(p) for p in err.problems]
+            await _send_error(self.ws, "the scenario cannot be used", problems)
+            return
+        except (FolderError, ValueError, TypeError) as err:
+            await _send_error(self.ws, str(err))
+            return
+        self.episode, self.start = episode, start
+        self.fps = min(start.fps, self.limits.fps)
+        recording = Recording(self.fps, start.image)
+        recording.frames = collections.deque(maxlen=self.limits.recorded_frames)
+        self.hub.recordings[self.key] = recording
+        ready = {
+            "type": "ready",
+            "episode": self.key,
+            "mode": episode.mode,
+            "agents": episode.env.possible_agents,
+            "keys": episode.keys() if isinstance(episode, Play) else {},
+            "fps": self.fps,
+            "max_fps": self.limits.fps,
+        }
+        await self.ws.send_text(json.dumps(ready))
+        await self._send_frame()
+
+    def _make(self, start: messages.Start, seed: int) -> Watch | Play:
+        workspace = self.hub.workspace
+        if start.text is not None:
+            folder = workspace.folder(start.folder) if start.folder is not None else None
+            spec = workspace.spec_of_text(start.text, "<editor>", folder)
+            label = "<editor>"
+        elif start.scenario is not None:
+            spec = workspace.spec(start.scenario)
+            label = start.scenario
+        else:
+            raise ValueError("start names a scenario (a reference) or gives its text")
+        checkpoints = workspace.config.checkpoints
+        if start.mode == "play":
+            others = resolve_policy(start.others, checkpoints)
+            return Play(spec, seed, others, label, workspace.config.scores)
+        unknown = sorted(set(start.policies) - set(spec.agent_names))
+        if unknown:
+            raise ValueError(f"no agent {unknown[0]!r}; agents: {', '.join(spec.agent_names)}")
+        policies = {a: resolve_policy(p, checkpoints) for a, p in start.policies.items()}
+        return Watch(spec, seed, policies)
+
+    async def _tick(self) -> None:
+        episode = self.episode
+        assert episode is not None
+        if isinstance(episode, Play):
+            keys = Keys(frozenset(self.pressed), frozenset(self.held))
+            self.pressed = set()
+            if await anyio.to_thread.run_sync(episode.advance, keys):
+                await self._send_frame()
+            return
+        if self.steps_asked:
+            self.steps_asked -= 1
+        if await anyio.to_thread.run_sync(episode.advance):
+            await self._send_frame()
+        if episode.done:
+            self.running, self.steps_asked = False, 0
+
+    async def _send_frame(self) -> None:
+        episode = self.episode
+        assert episode is not None
+        recording = self.hub.recordings[self.key]
+
+        def draw() -> tuple[dict, bytes]:
+            return episode.state(), encode(episode.frame(), recording.image)
+
+        state, picture = await anyio.to_thread.run_sync(draw)
+        recording.frames.append(picture)
+        await self.ws.send_text(json.dumps({"type": "state", **state}))
+        await self.ws.send_bytes(picture)
