@@ -27,7 +27,11 @@ def test_make_vec_serves_the_batched_env_and_matches_sync_vector_env():
     batched = gymnasium.make_vec(gym_id("fruits_poisons"), num_envs=3, max_episode_steps=30)
     assert isinstance(batched.unwrapped, FlatlandVectorEnv)
     reference = gymnasium.make_vec(
-        gym_id("fruits_poisons"), num_envs=3, vectorization_mode="sync", max_episode_steps=30
+        gym_id("fruits_poisons"),
+        num_envs=3,
+        vectorization_mode="sync",
+        vector_kwargs={"autoreset_mode": "SameStep"},  # make_vec's default here
+        max_episode_steps=30,
     )
     assert batched.metadata["autoreset_mode"] == reference.metadata["autoreset_mode"]
     assert batched.observation_space == reference.observation_space

@@ -10,7 +10,10 @@ message and waits for its answer. Info entries that are not numbers (the tuple o
 agent holds) come back with the answers.
 
 Every action is checked in this process before any shard moves, so a bad one raises the
-batched env's error and changes nothing anywhere. If a shard's process dies, the next call
+batched env's error and changes nothing anywhere. ``flatten``, ``autoreset_mode`` (the
+final observations of ``SAME_STEP`` come back with the answers; a ``reset_mask`` is sent to
+the shards that hold a world to reset) and ``render_mode="rgb_array"`` (each shard sends
+its worlds' frames) work as in ``BatchedParallelEnv``. If a shard's process dies, the next call
 raises ``RuntimeError`` naming it; ``close()`` stops them all.
 
 Its size (the worlds, and the processes) is held to the work budget before any process
@@ -32,38 +35,20 @@ from typing import Any
 import gymnasium
 import numpy as np
 
+from flatland_ma.envs.buffers import world_seeds
 from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
-from flatland_ma.envs.vector import AUTORESET_MODE, BatchedParallelEnv, _seeds
+from flatland_ma.envs.resets import final_infos, reset_mask_of
+from flatland_ma.envs.shard_worker import object_info, serve, shared_layout, views
+from flatland_ma.envs.vector import (
+    AUTORESET_MODE,
+    VECTOR_RENDER_MODES,
+    BatchedParallelEnv,
+    check_vector_render_mode,
+)
 from flatland_ma.scenario.budget import check_batch
 
 STARTUP_SECONDS = 300.0
 """How long a shard may take to build its worlds before the env gives up on it."""
-
-
-def _layout(n: int, space, action, infos: dict) -> dict[str, tuple[tuple, np.dtype]]:
-    """Name -> (shape, dtype) of every array shared with the shards, for ``n`` slots of
-    observations in ``space``, actions in ``action`` and the entries of ``infos``."""
-    arrays: dict[str, tuple[tuple, np.dtype]] = {}
-    subspaces = space.spaces if isinstance(space, gymnasium.spaces.Dict) else {None: space}
-    for key, sub in subspaces.items():
-        assert sub.shape is not None
-        arrays[f"obs/{key}" if key is not None else "obs"] = ((n, *sub.shape), np.dtype(sub.dtype))
-    assert action.shape is not None
-    arrays["actions"] = ((n, *action.shape), np.dtype(action.dtype))
-    arrays["rewards"] = ((n,), np.dtype(np.float64))
-    for flag in ("terminations", "truncations", "active"):
-        arrays[flag] = ((n,), np.dtype(bool))
-    for key, values in infos.items():
-        if key != "active" and values.dtype != object:
-            arrays[f"info/{key}"] = ((n,), values.dtype)
-    return arrays
-
-
-def _views(buffers: dict, layout: dict) -> dict[str, np.ndarray]:
-    return {
-        name: np.frombuffer(buffers[name], dtype=dtype, count=int(np.prod(shape))).reshape(shape)
-        for name, (shape, dtype) in layout.items()
-    }
 
 
 class ShardedParallelEnv:
@@ -71,7 +56,7 @@ class ShardedParallelEnv:
     core, at most one per world); see the module's docstring. ``copy=False`` returns the
     shared arrays themselves, overwritten by the next ``step`` or ``reset``."""
 
-    metadata = {"autoreset_mode": AUTORESET_MODE}
+    metadata = {"autoreset_mode": AUTORESET_MODE, "render_modes": VECTOR_RENDER_MODES}
 
     def __init__(
         self,
@@ -93,8 +78,13 @@ class ShardedParallelEnv:
             raise ValueError(f"shards must be a positive integer, not {shards!r}")
         self._guard = OneCaller("this sharded env")
         self._pipes, self._processes = [], []
+        check_vector_render_mode(overrides.get("render_mode"))
         # One world here, to check the arguments, learn the spaces and lay out the arrays.
         probe = BatchedParallelEnv(scenario, num_worlds=1, max_cycles=max_cycles, **overrides)
+        self.autoreset_mode = probe.autoreset_mode
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        self.render_mode = probe.render_mode
+        self._flat = probe._flat
         shards = min(num_worlds, shards if shards is not None else os.cpu_count() or 1)
         check_batch(probe.spec, num_worlds, _counted_as, processes=shards)
         self.spec = probe.spec
@@ -116,28 +106,30 @@ class ShardedParallelEnv:
         )
         self._checker = probe.worlds[0]
         _, probe_infos = probe.reset(seed=0)
-        self._layout = _layout(
+        self._counter_types = {k: v[:0] for k, v in probe_infos.items() if k != "active"}
+        self._layout = shared_layout(
             self.num_slots, self.single_observation_space, self.single_action_space, probe_infos
         )
-        self._objects = [k for k, v in probe_infos.items() if v.dtype == object]
+        self._objects = [k for k, v in probe_infos.items() if object_info(v)]
         processes = mp.get_context(context)
         self._buffers = {
             name: processes.RawArray("b", max(1, int(np.prod(shape)) * dtype.itemsize))
             for name, (shape, dtype) in self._layout.items()
         }
-        self._arrays = _views(self._buffers, self._layout)
+        self._arrays = views(self._buffers, self._layout)
         self._object_infos = {k: np.empty(self.num_slots, object) for k in self._objects}
         bounds = np.linspace(0, num_worlds, shards + 1).round().astype(int)
         self._worlds = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
         m = self.agents_per_world
         self._slots = [slice(a * m, b * m) for a, b in self._worlds]
         self._acting = np.zeros(self.num_slots, bool)
+        self._finals: dict[int, tuple] = {}
         self._ready = False
         try:
             for k, (first, last) in enumerate(self._worlds):
                 ours, theirs = processes.Pipe()
                 process = processes.Process(  # type: ignore[attr-defined]
-                    target=_serve,
+                    target=serve,
                     args=(
                         theirs,
                         scenario,
@@ -164,15 +156,22 @@ class ShardedParallelEnv:
     # -- the loop -----------------------------------------------------------------------
 
     def reset(self, seed: int | list[int | None] | None = None, options: dict | None = None):
-        """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``)."""
+        """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``); with
+        ``options={"reset_mask": mask}`` only those whose entry of ``mask`` is True."""
         with self._guard:
-            return self._reset(seed)
+            return self._reset(seed, reset_mask_of(options, self.num_worlds))
 
-    def _reset(self, seed):
-        seeds = _seeds(seed, self.num_worlds)
+    def _reset(self, seed, mask: np.ndarray | None = None):
+        seeds = world_seeds(seed, self.num_worlds)
+        if mask is not None and not self._ready:
+            raise RuntimeError("call reset() without a reset_mask first")
+        asked = []
         for k, (first, last) in enumerate(self._worlds):
-            self._send(k, ("reset", seeds[first:last]))
-        self._collect()
+            own = None if mask is None else mask[first:last]
+            if own is None or own.any():
+                self._send(k, ("reset", (seeds[first:last], own)))
+                asked.append(k)
+        self._collect(asked)
         self._ready = True
         return self._results()[0], self._infos()
 
@@ -184,6 +183,13 @@ class ShardedParallelEnv:
     def _step(self, actions):
         if not self._ready:
             raise RuntimeError("call reset() first")
+        m = self.agents_per_world
+        over = np.flatnonzero(~self._acting.reshape(self.num_worlds, m).any(axis=1))
+        if self.autoreset_mode == gymnasium.vector.AutoresetMode.DISABLED and len(over):
+            raise RuntimeError(
+                f"the episodes of worlds {over.tolist()} are over and autoreset_mode is "
+                'DISABLED: reset them first with reset(options={"reset_mask": mask})'
+            )
         layout = f"{self.num_worlds} worlds x {self.agents_per_world} agents"
         check_batch_of_actions(actions, self.num_slots, self.single_action_space, layout)
         target = self._arrays["actions"]
@@ -196,7 +202,34 @@ class ShardedParallelEnv:
         for k in range(self.num_shards):
             self._send(k, ("step", None))
         self._collect()
-        return (*self._results(), self._infos())
+        infos = self._infos()
+        infos.update(final_infos(self._finals, self._counter_types, self.num_slots))
+        return (*self._results(), infos)
+
+    def render(self) -> tuple | None:
+        """With ``render_mode="rgb_array"``: every world's frame, in world order."""
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called without a render_mode; nothing to draw")
+            return None
+        with self._guard:
+            if not self._ready:
+                raise RuntimeError("call reset() before render()")
+            for k in range(self.num_shards):
+                self._send(k, ("render", None))
+            return tuple(frame for k in range(self.num_shards) for frame in self._answer(k))
+
+    def flat_layout(self):
+        """With ``flatten=True``: as ``BatchedParallelEnv.flat_layout``."""
+        return self._flat_layout().parts
+
+    def unflatten(self, vector):
+        """With ``flatten=True``: one slot's flat observation as it is without flattening."""
+        return self._flat_layout().unflatten(vector)
+
+    def _flat_layout(self):
+        if self._flat is None:
+            raise ValueError("observations are flat only with flatten=True")
+        return self._flat
 
     def state(self) -> np.ndarray:
         """Every world's global state, one row per world, as ``BatchedParallelEnv.state``."""
@@ -273,15 +306,16 @@ class ShardedParallelEnv:
             raise RuntimeError(f"shard {k} failed: {payload}")
         return payload
 
-    def _collect(self) -> None:
-        for k in range(self.num_shards):
-            objects = self._answer(k)
+    def _collect(self, shards: list[int] | None = None) -> None:
+        self._finals = {}
+        for k in range(self.num_shards) if shards is None else shards:
+            objects, finals = self._answer(k)
             for key, values in objects.items():
                 self._object_infos[key][self._slots[k]] = values
-        a = self._arrays
-        # Next step acts every slot that is live and did not just finish (a world whose
-        # agents have all finished is reset instead).
-        self._acting = a["active"] & ~(a["terminations"] | a["truncations"])
+            first = self._slots[k].start
+            self._finals.update({first + slot: final for slot, final in finals.items()})
+        # The slots whose actions the next step uses, as each shard's batch says.
+        self._acting = self._arrays["acting"].copy()
 
     def _dead(self, k: int) -> str:
         process = self._processes[k]
@@ -309,66 +343,3 @@ class ShardedParallelEnv:
         if self.copy:
             infos = {key: values.copy() for key, values in infos.items()}
         return infos
-
-
-def _serve(pipe, scenario, num_worlds, max_cycles, overrides, slots, buffers, layout) -> None:
-    """A shard's process: its worlds, stepped on request, results into shared memory."""
-    try:  # the shards are the parallelism: one thread each (and forked: none of numba's)
-        batch = BatchedParallelEnv(
-            scenario,
-            num_worlds=num_worlds,
-            max_cycles=max_cycles,
-            copy=False,
-            parallel=False,
-            **overrides,
-        )
-        arrays = {name: view[slots] for name, view in _views(buffers, layout).items()}
-        pipe.send(("ok", None))
-    except Exception as err:  # reported to the parent, which raises it
-        pipe.send(("error", f"{type(err).__name__}: {err}"))
-        return
-    while True:
-        try:
-            command, payload = pipe.recv()
-        except (EOFError, KeyboardInterrupt):
-            break
-        if command == "close":
-            break
-        try:
-            if command == "state":
-                pipe.send(("ok", batch.state()))
-                continue
-            if command == "reset":
-                observations, infos = batch.reset(seed=payload)
-                rewards = terminations = truncations = None
-            else:
-                observations, rewards, terminations, truncations, infos = batch.step(
-                    arrays["actions"]
-                )
-            _write(arrays, observations, rewards, terminations, truncations, infos)
-            objects = {k: list(v) for k, v in infos.items() if v.dtype == object}
-            pipe.send(("ok", objects))
-        except Exception as err:
-            pipe.send(("error", f"{type(err).__name__}: {err}"))
-    batch.close()
-
-
-def _write(arrays, observations, rewards, terminations, truncations, infos) -> None:
-    if isinstance(observations, dict):
-        for key, values in observations.items():
-            arrays[f"obs/{key}"][:] = values
-    else:
-        arrays["obs"][:] = observations
-    if rewards is None:
-        arrays["rewards"][:] = 0.0
-        arrays["terminations"][:] = False
-        arrays["truncations"][:] = False
-    else:
-        arrays["rewards"][:] = rewards
-        arrays["terminations"][:] = terminations
-        arrays["truncations"][:] = truncations
-    for key, values in infos.items():
-        if key == "active":
-            arrays["active"][:] = values
-        elif values.dtype != object:
-            arrays[f"info/{key}"][:] = values

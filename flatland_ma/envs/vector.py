@@ -6,12 +6,20 @@ share one policy's parameters among agents: world ``w``'s agent ``j`` is slot
 ``Dict`` observation as a dict of stacked arrays), and rewards, terminations and
 truncations as arrays of one entry per slot.
 
-Worlds reset in Gymnasium's ``NEXT_STEP`` mode: the step after the one in which a
-world's last agent finished resets that world (its actions are not used) and returns the
-first observation of its new episode, with reward 0 and neither termination nor
-truncation. A world reset this way continues its own generator, so world ``w`` of a
-batch reset with seed ``s`` plays exactly the episodes of a ``FlatlandParallelEnv`` reset
-with seed ``s + w`` and then reset without a seed each time its episode ends.
+Worlds reset as Gymnasium 1.x's ``autoreset_mode`` says (``flatland_ma.envs.resets``):
+by default ``NEXT_STEP``, where the step after the one in which a world's last agent
+finished resets that world (its actions are not used) and returns the first observation of
+its new episode, with reward 0 and neither termination nor truncation; ``SAME_STEP`` resets
+it in that step and puts the final observations in ``infos["final_obs"]``; ``DISABLED``
+leaves it to ``reset(options={"reset_mask": mask})``. A world reset automatically continues
+its own generator, so world ``w`` of a batch reset with seed ``s`` plays exactly the
+episodes of a ``FlatlandParallelEnv`` reset with seed ``s + w`` and then reset without a
+seed each time its episode ends.
+
+``flatten=True`` gives every slot one float32 vector, laid out as the single env's
+``flatten=True`` lays it (``flatland_ma.envs.flatten``; ``flat_layout`` and ``unflatten``).
+``render_mode="rgb_array"`` makes ``render()`` return a tuple of frames, one per world,
+as Gymnasium's ``SyncVectorEnv`` does.
 
 Agents that finish while their world plays on leave it (as in the parallel env): from the
 next step their slot is inert, ``infos["active"]`` is False for it, its observation is
@@ -31,50 +39,40 @@ of the compiled kernel, spread over numba's threads (``parallel=False``: on one)
 
 from __future__ import annotations
 
-from typing import Any, TypeGuard
+from typing import Any
 
 import gymnasium
 import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
+from flatland_ma.envs.buffers import clear, copied, counter_array, put, stacked, world_seeds
+from flatland_ma.envs.flatten import FlatLayout, FlatPart
 from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
 from flatland_ma.envs.padding import Padding
 from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.envs.resets import (
+    autoreset_mode_of,
+    final_infos,
+    flatten_into,
+    reset_mask_of,
+    slot_of,
+)
 from flatland_ma.scenario.budget import check_batch
 from flatland_ma.sensors.suite import WorldsKernel
 
 AUTORESET_MODE = AutoresetMode.NEXT_STEP
+"""The batched envs' default autoreset mode (``flatland_ma.envs.resets``)."""
+VECTOR_RENDER_MODES = ["rgb_array"]
+"""What the envs of many worlds render: one frame per world (no window per world)."""
 
 
-def _buffer(space: gymnasium.Space, n: int):
-    """Zeros for ``n`` stacked values of ``space`` (a dict of them for a ``Dict``)."""
-    if isinstance(space, gymnasium.spaces.Dict):
-        return {key: _buffer(sub, n) for key, sub in space.spaces.items()}
-    assert space.shape is not None, f"{space} has no shape to stack"
-    return np.zeros((n, *space.shape), space.dtype)
-
-
-def _put(buffer, slot: int, value) -> None:
-    if isinstance(buffer, dict):
-        for key, sub in buffer.items():
-            sub[slot] = value[key]
-    else:
-        buffer[slot] = value
-
-
-def _clear(buffer, slot: int) -> None:
-    if isinstance(buffer, dict):
-        for sub in buffer.values():
-            sub[slot] = 0
-    else:
-        buffer[slot] = 0
-
-
-def _copied(buffer):
-    if isinstance(buffer, dict):
-        return {key: sub.copy() for key, sub in buffer.items()}
-    return buffer.copy()
+def check_vector_render_mode(render_mode: str | None) -> None:
+    if render_mode is not None and render_mode not in VECTOR_RENDER_MODES:
+        raise ValueError(
+            f"render_mode {render_mode!r}: the envs of many worlds render {VECTOR_RENDER_MODES} "
+            "(a tuple of frames, one per world)"
+        )
 
 
 class BatchedParallelEnv:
@@ -83,11 +81,12 @@ class BatchedParallelEnv:
     docstring). Every agent must have the same spaces (one shared policy), unless ``pad``:
     then agents that observe differently (but act alike) are given one padded observation
     space with their role in it (``flatland_ma.envs.padding``); ``padding`` is None when
-    nothing needed padding. ``num_worlds`` worlds must fit the work budget
+    nothing needed padding. ``flatten``, ``autoreset_mode`` and ``render_mode``: see the
+    module's docstring. ``num_worlds`` worlds must fit the work budget
     (``flatland_ma.scenario.budget.check_batch``); ``_counted_as`` is the name the refusal
     gives them (``num_envs`` for ``gymnasium.make_vec``)."""
 
-    metadata = {"autoreset_mode": AUTORESET_MODE}
+    metadata = {"autoreset_mode": AUTORESET_MODE, "render_modes": VECTOR_RENDER_MODES}
 
     def __init__(
         self,
@@ -97,13 +96,24 @@ class BatchedParallelEnv:
         copy: bool = True,
         parallel: bool = True,
         pad: bool = False,
+        flatten: bool = False,
+        autoreset_mode: AutoresetMode | str = AUTORESET_MODE,
+        render_mode: str | None = None,
         *,
         _counted_as: str = "num_worlds",
         **overrides,
     ):
         if isinstance(num_worlds, bool) or not isinstance(num_worlds, int) or num_worlds < 1:
             raise ValueError(f"{_counted_as} must be a positive integer, not {num_worlds!r}")
-        first = FlatlandParallelEnv(scenario, max_cycles=max_cycles, **overrides)
+        if not isinstance(flatten, bool):
+            raise TypeError(f"flatten must be True or False, not {flatten!r}")
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        check_vector_render_mode(render_mode)
+        self.render_mode = render_mode
+        first = FlatlandParallelEnv(
+            scenario, max_cycles=max_cycles, render_mode=render_mode, **overrides
+        )
         check_batch(first.spec, num_worlds, _counted_as)  # before the other worlds are built
         self._guard = OneCaller("this batched env")
         self.worlds = [first] + [_same(first) for _ in range(num_worlds - 1)]
@@ -117,9 +127,10 @@ class BatchedParallelEnv:
         agents = first.possible_agents
         self.padding = Padding.of(first) if pad else None
         """How observations are padded to one space, or None (see ``pad``)."""
-        self.single_observation_space = (
-            first.observation_space(agents[0]) if self.padding is None else self.padding.space
-        )
+        own = first.observation_space(agents[0]) if self.padding is None else self.padding.space
+        self._flat = FlatLayout(own) if flatten else None
+        """How a slot's observation lies in its flat vector, with ``flatten``."""
+        self.single_observation_space = own if self._flat is None else self._flat.space
         self.single_action_space = first.action_space(agents[0])
         for agent in agents[1:]:
             observes = str(first.observation_space(agent)) == str(
@@ -142,7 +153,12 @@ class BatchedParallelEnv:
         self.state_space = batch_space(first.state_space, num_worlds)
         self.observation_space = batch_space(self.single_observation_space, self.num_slots)
         self.action_space = batch_space(self.single_action_space, self.num_slots)
-        self._observations = _buffer(self.single_observation_space, self.num_slots)
+        self._observations = stacked(own, self.num_slots)
+        self._flat_observations = (
+            None
+            if self._flat is None
+            else np.zeros((self.num_slots, *self._flat.space.shape), np.float32)
+        )
         self._rewards = np.zeros(self.num_slots, np.float64)
         self._terminations = np.zeros(self.num_slots, bool)
         self._truncations = np.zeros(self.num_slots, bool)
@@ -158,18 +174,21 @@ class BatchedParallelEnv:
 
     def reset(self, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every world: world ``w`` with ``seed + w`` (or ``seed[w]``; None: from
-        fresh entropy)."""
+        fresh entropy); with ``options={"reset_mask": mask}`` only the worlds whose entry
+        of ``mask`` (one bool per world) is True (``flatland_ma.envs.resets``)."""
         with self._guard:
-            return self._reset(seed)
+            return self._reset(seed, reset_mask_of(options, self.num_worlds))
 
-    def _reset(self, seed):
-        seeds = _seeds(seed, self.num_worlds)
-        self._rewards[:] = 0.0
-        self._terminations[:] = False
-        self._truncations[:] = False
+    def _reset(self, seed, mask: np.ndarray | None = None):
+        seeds = world_seeds(seed, self.num_worlds)
+        m = self.agents_per_world
         for w, env in enumerate(self.worlds):
-            self._restart(w, env, seeds[w])
-        return self._out(self._observations), self._infos()
+            if mask is None or mask[w]:
+                self._rewards[w * m : (w + 1) * m] = 0.0
+                self._terminations[w * m : (w + 1) * m] = False
+                self._truncations[w * m : (w + 1) * m] = False
+                self._restart(w, env, seeds[w])
+        return self._observed(), self._infos()
 
     def step(self, actions):
         """One step of every world; ``actions[slot]`` for each slot (those of inert slots
@@ -187,22 +206,24 @@ class BatchedParallelEnv:
         self._terminations[:] = False
         self._truncations[:] = False
         advanced, entered = [], []
+        finals: dict[int, tuple] = {}
         try:
             # Act and simulate world by world; cast every advanced world's rays in one call.
             for w, env in enumerate(self.worlds):
-                if self._ended[w]:
+                if self._ended[w]:  # NEXT_STEP: reset instead (DISABLED: refused in _check)
                     self._restart(w, env, None)
                     continue
                 base = w * m
                 for j in range(m):  # agents gone before this step are inert from now
                     if self._active[base + j] and j not in env._live:
                         self._active[base + j] = False
-                        _clear(self._observations, base + j)
+                        clear(self._observations, base + j)
                 env.enter()
                 entered.append(env)
                 advanced.append((w, env, *env._advance(checked[w], observe=False)))
             if advanced:
                 self._rays.observe(np.array([a[0] for a in advanced], np.int64))
+            same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
             for w, env, live, rewards, terminated, truncated in advanced:
                 sensors, task = env.running.sensors, env.running.task
                 base = w * m
@@ -212,19 +233,60 @@ class BatchedParallelEnv:
                     self._rewards[slot] = rewards[i]
                     self._terminations[slot] = terminated[i]
                     self._truncations[slot] = truncated
-                    self._count(slot, task.info(i))
+                    info = task.info(i)
+                    self._count(slot, info)
+                    if same_step and (terminated[i] or truncated):
+                        finals[slot] = (self._seen(slot), info)
                 self._ended[w] = not env.agents
         finally:
             for env in entered:
                 env.leave()
-        observations = self._out(self._observations)
+        if finals:  # SAME_STEP: the worlds that ended start again now
+            for w, env, *_ in advanced:
+                if self._ended[w]:
+                    self._restart(w, env, None)
+        infos = self._infos()
+        infos.update(final_infos(finals, self._counters, self.num_slots))
         return (
-            observations,
+            self._observed(),
             self._out(self._rewards),
             self._out(self._terminations),
             self._out(self._truncations),
-            self._infos(),
+            infos,
         )
+
+    def acting(self) -> np.ndarray:
+        """Which slots' actions the next step uses: live agents of worlds it steps (not
+        inert slots, not worlds it resets instead, not worlds over in ``DISABLED``)."""
+        m = self.agents_per_world
+        out = np.zeros(self.num_slots, bool)
+        for w, env in enumerate(self.worlds):
+            if not self._ended[w] and env.episode is not None:
+                out[[w * m + i for i in env._live]] = True
+        return out
+
+    def render(self) -> tuple | None:
+        """With ``render_mode="rgb_array"``: every world's frame, in world order (a tuple,
+        as Gymnasium's ``SyncVectorEnv`` gives); None without a render mode."""
+        if self.render_mode is None:
+            gymnasium.logger.warn("render() called without a render_mode; nothing to draw")
+            return None
+        with self._guard:
+            return tuple(env.render() for env in self.worlds)
+
+    def flat_layout(self) -> tuple[FlatPart, ...]:
+        """With ``flatten=True``: where each entry of a slot's observation lies in its flat
+        vector (name, start, stop, shape)."""
+        return self._flat_layout().parts
+
+    def unflatten(self, vector) -> np.ndarray | dict[str, np.ndarray]:
+        """With ``flatten=True``: one slot's flat observation as it is without flattening."""
+        return self._flat_layout().unflatten(vector)
+
+    def _flat_layout(self) -> FlatLayout:
+        if self._flat is None:
+            raise ValueError("observations are flat only with flatten=True")
+        return self._flat
 
     def state(self) -> np.ndarray:
         """Every world's global state (``FlatlandParallelEnv.state``), one row per world,
@@ -261,7 +323,7 @@ class BatchedParallelEnv:
 
     def _put(self, slot: int, agent: int, observation) -> None:
         if self.padding is None:
-            _put(self._observations, slot, observation)
+            put(self._observations, slot, observation)
         else:
             self.padding.put(self._observations, agent, observation, slot)
 
@@ -269,6 +331,12 @@ class BatchedParallelEnv:
         """Each live agent's action, checked, world by world; nothing is changed."""
         if any(env.episode is None for env in self.worlds):
             raise RuntimeError("call reset() first")
+        if self.autoreset_mode == AutoresetMode.DISABLED and any(self._ended):
+            over = [w for w, ended in enumerate(self._ended) if ended]
+            raise RuntimeError(
+                f"the episodes of worlds {over} are over and autoreset_mode is DISABLED: "
+                'reset them first with reset(options={"reset_mask": mask})'
+            )
         check_batch_of_actions(actions, self.num_slots, self.single_action_space, self.layout)
         m = self.agents_per_world
         checked: list[list] = []
@@ -287,7 +355,7 @@ class BatchedParallelEnv:
     def _count(self, slot: int, info: dict) -> None:
         for key, value in info.items():
             if key not in self._counters:
-                self._counters[key] = _counter_array(value, self.num_slots)
+                self._counters[key] = counter_array(value, self.num_slots)
             self._counters[key][slot] = value
 
     def _infos(self) -> dict:
@@ -296,48 +364,25 @@ class BatchedParallelEnv:
         return infos
 
     def _out(self, buffer):
-        return _copied(buffer) if self.copy else buffer
+        return copied(buffer) if self.copy else buffer
 
+    def _observed(self):
+        """The observations handed out: the stacked buffers, or their flat vectors."""
+        if self._flat is None:
+            return self._out(self._observations)
+        assert self._flat_observations is not None
+        flatten_into(self._flat, self._observations, self._flat_observations)
+        return self._out(self._flat_observations)
 
-def _counter_array(value, n: int) -> np.ndarray:
-    """Room for one info entry per slot: integers, other numbers, or anything else (such
-    as the tuple of keys held) as objects."""
-    if isinstance(value, bool | np.bool_):
-        return np.zeros(n, bool)
-    if isinstance(value, int | np.integer):
-        return np.zeros(n, np.int64)
-    if isinstance(value, float | np.floating):
-        return np.zeros(n, np.float64)
-    return np.empty(n, object)
+    def _seen(self, slot: int):
+        """A copy of one slot's current observation as handed out (flat with flatten)."""
+        observation = slot_of(self._observations, slot)
+        return observation if self._flat is None else self._flat.flatten(observation)
 
 
 def _same(first: FlatlandParallelEnv) -> FlatlandParallelEnv:
     """Another env of ``first``'s checked spec, without loading and checking it again."""
     env = FlatlandParallelEnv.__new__(FlatlandParallelEnv)
-    env._setup(first.spec, first.render_mode)
+    env._setup(first.spec, first.render_mode, first.flatten)
     env.step_limit = first.step_limit
     return env
-
-
-def _seeds(seed: int | list[int | None] | None, n: int) -> list[int | None]:
-    """Each world's seed, all checked before any world resets."""
-    if seed is None:
-        return [None] * n
-    if _whole(seed):
-        seeds: list = [int(seed) + w for w in range(n)]
-    elif isinstance(seed, list | tuple):
-        seeds = list(seed)
-        if len(seeds) != n:
-            raise ValueError(f"expected {n} seeds, one per world, got {len(seeds)}")
-    else:
-        raise TypeError(f"seed must be an integer or a list of one per world, not {seed!r}")
-    for w, value in enumerate(seeds):
-        if value is not None and not (_whole(value) and value >= 0):
-            raise ValueError(
-                f"world {w}'s seed must be a non-negative integer or None, not {value!r}"
-            )
-    return [None if value is None else int(value) for value in seeds]
-
-
-def _whole(value) -> TypeGuard[int | np.integer]:
-    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
