@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow test-rllib soak bench docs docs-site docs-check reference lint clean reproduce reproduce-multi results
+.PHONY: demo test test-slow test-rllib soak bench docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -87,6 +87,16 @@ docs-site: $(DOCS_STAMP)
 docs-check: docs-site
 	$(BIN)/python -m pytest -q -p no:cacheprovider tests_docs
 
+# The studio's pages (flatland-ma studio): built from studio/frontend (Vite, CodeMirror,
+# package-lock.json pinned) into flatland_ma/studio/static, which is committed and shipped
+# as package data, so an install needs no npm. studio-check opens them in headless
+# Chromium (Debian's, through the docs extra's Playwright) and saves docs/images/studio/.
+studio-assets:
+	cd studio/frontend && npm ci --no-audit --no-fund && npx vite build
+
+studio-check: $(DOCS_STAMP)
+	$(BIN)/python -m pytest -q -p no:cacheprovider tests_studio
+
 # The paper's experiment: DQN, A3C and DFP on fruits_poisons, SEEDS seeds of 250k steps
 # each, WORKERS seeds at a time (runs/ resumes where it stopped); A3C also with lr 1e-4,
 # universe-starter-agent's own default. Then the figure and table (docs/results.md).
@@ -115,8 +125,8 @@ reproduce-multi: $(STAMP)
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)
-	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_docs benchmarks scenarios docs/conf.py docs/_ext
-	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_docs benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
 	$(BIN)/pyright
 
 clean:
