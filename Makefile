@@ -56,6 +56,13 @@ bench: $(STAMP)
 reference: $(STAMP)
 	$(BIN)/python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 
+# A shipped scenario's picture (as `make docs` draws it) and the scores line of its header
+# comment (random play and its reference solver), which the library tests require.
+scenario-page: $(STAMP)
+	@test -n "$(NAME)" || (echo "usage: make scenario-page NAME=<scenario>" && exit 2)
+	$(BIN)/flatland-ma record $(NAME) --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$(NAME).png
+	$(BIN)/python -m flatland_ma.scores_header $(NAME)
+
 # Pictures of the scenarios for the README and docs/ (after the format reference).
 docs: reference
 	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif

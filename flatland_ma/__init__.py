@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from flatland_ma.envs.parallel import FlatlandParallelEnv as parallel_env
     from flatland_ma.envs.shards import ShardedParallelEnv
     from flatland_ma.envs.vector import BatchedParallelEnv
+    from flatland_ma.extensions import register
 
 try:  # the installed distribution's version: pyproject.toml is its one source
     __version__ = version("flatland-ma")
@@ -45,9 +46,12 @@ _LAZY = {
     "check_scenario": ("flatland_ma.build.feasibility", "check_scenario"),
     "BatchedParallelEnv": ("flatland_ma.envs.vector", "BatchedParallelEnv"),
     "ShardedParallelEnv": ("flatland_ma.envs.shards", "ShardedParallelEnv"),
+    "register": ("flatland_ma.extensions", "register"),
 }
 """Names imported on first use: ``parallel_env(scenario="fruits_poisons",
-render_mode=None, max_cycles=None, **overrides)`` is the parallel env's class."""
+render_mode=None, max_cycles=None, **overrides)`` is the parallel env's class;
+``register(spec, implementation)`` adds a sensor, rule, part or generator from your own
+package (``flatland_ma.extensions``)."""
 
 
 def __getattr__(name: str):
@@ -71,4 +75,5 @@ __all__ = [
     "list_scenarios",
     "load_scenario",
     "parallel_env",
+    "register",
 ]

@@ -1,5 +1,5 @@
 """The format's reference (``docs/scenarios.md``) and JSON schema (``scenario.schema.json``)
-are written from the models by ``make docs``; they match the code, every model has its
+are written from the models by ``make reference``; they match the code, every model has its
 section, and the JSON schema takes every shipped file and rejects what the loader rejects."""
 
 import json
@@ -19,14 +19,16 @@ ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_the_format_reference_matches_the_schema():
-    """docs/scenarios.md is written from the schema: regenerate it with ``make docs``."""
-    assert (ROOT / "docs" / "scenarios.md").read_text(encoding="utf-8") == render()
+    """docs/scenarios.md is written from the schema: regenerate it with ``make reference``."""
+    written = (ROOT / "docs" / "scenarios.md").read_text(encoding="utf-8")
+    assert written == render(), "docs/scenarios.md is out of date: run `make reference`"
 
 
 def test_the_shipped_json_schema_matches_the_models():
-    """scenarios/scenario.schema.json too: regenerate it with ``make docs``."""
+    """scenarios/scenario.schema.json too: regenerate it with ``make reference``."""
     assert schema_path() == ROOT / "scenarios" / "scenario.schema.json"
-    assert schema_path().read_text(encoding="utf-8") == schema_text()
+    written = schema_path().read_text(encoding="utf-8")
+    assert written == schema_text(), "scenario.schema.json is out of date: run `make reference`"
 
 
 def test_every_model_has_its_section_and_every_section_its_keys():

@@ -26,6 +26,8 @@ class Grasper(Part, kind="grasper"):
     closed (see the module docstring). ``grip`` names its continuous entry, ``prefix``
     starts the names of its ``grasp`` and ``release`` macros."""
 
+    holds = True
+
     def __init__(
         self,
         grip: str,

@@ -8,16 +8,21 @@ move (for start places and for the check that no part is fast enough to cross a 
 one physics substep). The actuator derives the action spaces from the parts' controls.
 
 A new part is one subclass, named by its ``kind`` in the class statement, plus its spec
-(a key of the scenario's ``agent`` section); its ``for_agent`` makes the parts an agent's
-spec declares, and the builder asks every kind in ``PART_KINDS``. (Heads, arm segments
-and graspers are made by the builder itself, which names their controls after the arms'
-layout.)
+(a subclass of ``scenario.spec_agent.PartBaseSpec`` with ``type: Literal["<kind>"]``),
+registered with ``flatland_ma.register(spec, part)``; a file lists it in an agent's
+``parts``, and the builder makes it with ``from_spec`` (the spec's keys but ``type``, as
+keyword arguments). (Heads, arm segments and graspers are made by the builder itself from
+the ``head`` and ``arms`` keys, which names their controls after the arms' layout; a kind
+may also make parts from other keys of the agent's spec with ``for_agent``.)
 
 Parts with a body (``Link``: the head, each arm segment) sit on a pivot with a rotary
-limit and a torque-limited motor: the command sets the motor's rate, and with rate 0 the
-motor holds the joint where it is. An agent's shapes share a collision group, so its
-parts never collide with each other; they collide with the world and with other agents,
-and other agents' cameras see them.
+limit and a torque-limited motor (``jointed_link`` makes one): the command sets the
+motor's rate, and with rate 0 the motor holds the joint where it is. Such a part sets
+``jointed`` and returns its link from ``build``; the agent then registers it (its
+``links``: teleports carry it, its motor is driven, proprioception reads its angle). An
+agent's shapes share a collision group (``agent_filter``), so its parts never collide with
+each other; they collide with the world and with other agents, and other agents' cameras
+see them.
 """
 
 from __future__ import annotations
@@ -56,17 +61,30 @@ class Part(Kinded, ABC):
     KINDS = PART_KINDS
     controls: tuple[Control, ...] = ()
     label: str = ""
+    jointed: bool = False
+    """Whether ``build`` returns a ``Link`` (a body on a motorised joint), which the agent
+    registers in its ``links`` and proprioception reads (one entry per jointed part)."""
+    holds: bool = False
+    """Whether it is a hand that holds things: its ``held`` is what it holds, or None
+    (proprioception reads one entry for it)."""
+
+    @classmethod
+    def from_spec(cls, values: dict, agent) -> Part:
+        """The part an entry of an agent's ``parts`` describes: ``values`` are the entry's
+        keys but ``type``, ``agent`` the agent's spec. By default ``cls(**values)``."""
+        return cls(**values)
 
     @classmethod
     def for_agent(cls, agent) -> list[Part]:
-        """The parts of this kind that ``agent`` (the scenario's agent spec) declares, in
-        order; none by default."""
+        """The parts of this kind that other keys of ``agent`` (the scenario's agent spec)
+        declare, in order; none by default (its ``parts`` entries are ``from_spec``'s)."""
         return []
 
     @abstractmethod
     def build(self, agent: AgentBody) -> Entity | None:
         """Make its bodies, shapes and joints on ``agent`` (at the agent's pose); return
-        the entity to add to the world, if it has a body of its own."""
+        the entity to add to the world, if it has a body of its own: a ``Link`` if
+        ``jointed`` (the agent registers it; ``build`` does not touch ``agent.links``)."""
 
     @abstractmethod
     def command(self, values, angles: dict) -> None:
@@ -122,7 +140,10 @@ def agent_filter(agent_index: int) -> pymunk.ShapeFilter:
     return pymunk.ShapeFilter(group=agent_index + 1, categories=Category.AGENT)
 
 
-def _joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo, hi, torque):
+def motor_joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo: float, hi: float, torque):
+    """The three constraints of a motorised joint: a pivot at ``pivot`` (world
+    coordinates), a rotary limit of the child's angle relative to the parent between
+    ``lo`` and ``hi`` (radians), and a motor of at most ``torque`` (its rate starts at 0)."""
     pin = pymunk.PivotJoint(parent, child, pivot)
     limit = pymunk.RotaryLimitJoint(parent, child, lo, hi)
     motor = pymunk.SimpleMotor(parent, child, 0.0)
@@ -130,10 +151,47 @@ def _joint(parent: pymunk.Body, child: pymunk.Body, pivot, lo, hi, torque):
     return pin, limit, motor
 
 
+def jointed_link(
+    agent: AgentBody,
+    body: pymunk.Body,
+    shapes: tuple[pymunk.Shape, ...],
+    parent: pymunk.Body,
+    pivot,
+    limits: tuple[float, float],
+    max_rate: float,
+    max_torque: float,
+) -> Link:
+    """A part's body on ``parent`` (the agent's base body, or another link's), joined at
+    ``pivot`` (world coordinates) by a ``motor_joint``: ``limits`` (radians, relative to
+    the parent), top rate ``max_rate`` (radians per second), ``max_torque``. ``body`` is
+    placed already (set its angle, then its position: pymunk turns a body about its
+    centre of gravity); its ``shapes`` are made the agent's (collision type and group)
+    and drawn a shade darker than the agent. Return it from a ``jointed`` part's
+    ``build``."""
+    for shape in shapes:
+        shape.collision_type = CollisionType.AGENT
+        shape.filter = agent_filter(agent.owner)
+    constraints = motor_joint(parent, body, pivot, *limits, max_torque)
+    return Link(
+        body=body,
+        shapes=tuple(shapes),
+        color=darker(agent.color),
+        constraints=constraints,
+        owner=agent.owner,
+        base=agent,
+        parent=parent,
+        motor=constraints[2],
+        limits=limits,
+        max_rate=max_rate,
+        cog=(body.center_of_gravity.x, body.center_of_gravity.y),
+    )
+
+
 class Jointed(Part):
     """A part with a body of its own on a motorised joint: its one control is the joint's
     rate, as a fraction of its top speed (held still when not commanded)."""
 
+    jointed = True
     link: Link  # made by ``build``
 
     def command(self, values, angles: dict) -> None:
@@ -173,24 +231,11 @@ class Head(Jointed, kind="head"):
         # pymunk turns a body about its centre of gravity: set the angle, then the position.
         body.angle, body.position = anchor.angle, anchor.position
         shape = pymunk.Circle(body, self.radius, (self.offset, 0.0))
-        shape.collision_type = CollisionType.AGENT
-        shape.filter = agent_filter(agent.owner)
-        lo, hi = -self.limit, self.limit
-        self.link = Link(
-            body=body,
-            shapes=(shape,),
-            color=darker(agent.color),
-            constraints=_joint(anchor, body, anchor.position, lo, hi, self.max_torque),
-            owner=agent.owner,
-            base=agent,
-            parent=anchor,
-            limits=(lo, hi),
-            max_rate=self.turn_rate,
-            cog=(self.offset, 0.0),
+        limits = (-self.limit, self.limit)
+        self.link = jointed_link(
+            agent, body, (shape,), anchor, anchor.position, limits, self.turn_rate, self.max_torque
         )
-        self.link.motor = self.link.constraints[2]
         agent.head = self.link
-        agent.links.append(self.link)
         return self.link
 
     def reach(self) -> float:
@@ -253,25 +298,11 @@ class ArmSegment(Jointed, kind="arm_segment"):
         body.center_of_gravity = (self.length / 2, 0.0)
         body.angle, body.position = heading, joint
         shape = pymunk.Poly(body, verts)
-        shape.collision_type = CollisionType.AGENT
-        shape.filter = agent_filter(agent.owner)
         shape.friction = 0.6
-        constraints = _joint(parent, body, joint, *self.limits, self.max_torque)
-        self.link = Link(
-            body=body,
-            shapes=(shape,),
-            color=darker(agent.color),
-            constraints=constraints,
-            owner=agent.owner,
-            base=agent,
-            parent=parent,
-            motor=constraints[2],
-            limits=self.limits,
-            max_rate=self.joint_rate,
-            cog=(self.length / 2, 0.0),
+        self.link = jointed_link(
+            agent, body, (shape,), parent, joint, self.limits, self.joint_rate, self.max_torque
         )
         agent.joints.append(self.link)
-        agent.links.append(self.link)
         return self.link
 
     def reach(self) -> float:

@@ -12,7 +12,8 @@ import math
 
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
-from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Part, agent_filter
+from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Link, Part, agent_filter
+from flatland_ma.registry import ExtensionError
 from flatland_ma.scenario.spec_agent import AgentSpec, ChannelSpec
 from flatland_ma.sensors.hearing import Hearing
 from flatland_ma.sensors.noise import Noise
@@ -25,7 +26,8 @@ MOTOR_KEYS = ("radius", "mass", "max_speed", "max_turn_rate", "max_force", "max_
 
 def make_parts(agent: AgentSpec) -> list[Part]:
     """The agent's parts, in the order of their controls: head, arm segments, graspers,
-    then the parts of any other kind (by kind name)."""
+    the entries of its ``parts`` (kinds registered from outside), then those other kinds
+    make from its other keys (``Part.for_agent``, by kind name)."""
     parts: list[Part] = []
     if agent.head is not None:
         parts.append(Head(**agent.head.model_dump()))
@@ -52,6 +54,11 @@ def make_parts(agent: AgentSpec) -> list[Part]:
     for label, where, tip, grasper in tips:
         prefix = "" if len(tips) == 1 else f"{label}_"
         parts.append(Grasper(f"{label}_grip", prefix, where, tip, **grasper.model_dump()))
+    for k, entry in enumerate(agent.parts):
+        values = entry.model_dump(exclude={"type"})
+        part = PART_KINDS[entry.type].from_spec(values, agent)
+        part.label = part.label or f"parts[{k}]"
+        parts.append(part)
     for kind in PART_KINDS.every():  # any other kind the agent declares
         parts += kind.for_agent(agent)
     return parts
@@ -108,5 +115,13 @@ def make_agent(
         shape.filter = agent_filter(index)
     body.parts = make_parts(agent)
     for part in body.parts:
-        part.build(body)
+        built = part.build(body)
+        if part.jointed != isinstance(built, Link):
+            what = "a Link" if part.jointed else "no Link (it is not jointed)"
+            raise ExtensionError(
+                f"{type(part).__name__}.build must return {what}: a part's class says "
+                f"whether it is jointed (Part.jointed), and the agent registers its link"
+            )
+        if isinstance(built, Link):
+            body.links.append(built)  # parents before children: parts build in that order
     return body

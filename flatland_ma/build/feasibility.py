@@ -15,6 +15,7 @@ import numpy as np
 from flatland_ma.build.bodies import fastest_parts, footprint, make_parts, make_sensors
 from flatland_ma.build.builder import lay_ground, populate
 from flatland_ma.build.capacity import check_capacity
+from flatland_ma.registry import ExtensionError
 from flatland_ma.scenario.checks import wall_thicknesses
 from flatland_ma.scenario.errors import Problem, ScenarioError, SpecError
 from flatland_ma.scenario.loader import load_scenario
@@ -41,7 +42,7 @@ def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> Sce
         check_layout(spec)
     except SpecError as err:
         raise spec.locate(err) from None
-    except ScenarioError:
+    except (ScenarioError, ExtensionError):
         raise
     except Exception as err:
         source = spec._origin[0]

@@ -198,13 +198,14 @@ def _shapes(spec: ScenarioSpec) -> _Total:
         elif gen.generator == "grid_rooms":
             shared = gen.rows * (gen.cols - 1) + gen.cols * (gen.rows - 1)
             total.add(path, 3 * shared)  # two pieces of wall and a door in each
-        else:
-            total.add(path + ("count",), gen.count)
+        elif isinstance(count := getattr(gen, "count", None), int):  # and generators alike
+            total.add(path + ("count",), count)
     for path, agent, count in spec.agent_kinds():
         parts = (
             1
             + (agent.head is not None)
             + sum(len(a.segments) + (a.grasper is not None) for a in agent.arms)
+            + len(agent.parts)
         )
         total.add(("n_agents",) if path == ("agent",) else path, count * parts)
     return total

@@ -14,6 +14,7 @@ from pydantic import BaseModel
 from pydantic_core import ErrorDetails
 
 from flatland_ma.scenario.errors import KeyPath, Marks, Problem, SpecError, locate
+from flatland_ma.scenario.kinds import Nested
 
 TAG_KEYS = ("shape", "generator", "rule", "type")
 """Keys whose value picks the model of a mapping (pydantic puts it in error locations)."""
@@ -26,16 +27,7 @@ def problems_from(
     (e.g. ``respawn: 0``, neither a word nor a count) become one problem."""
     # key path -> messages, or the errors of a union
     faults: dict[KeyPath, list[str | ErrorDetails]] = {}
-    for error in errors:
-        cause = (error.get("ctx") or {}).get("error")
-        if isinstance(cause, SpecError):
-            for path, message in [(cause.path, str(cause)), *cause.also]:
-                faults.setdefault(tuple(path), []).append(message)
-            continue
-        path = _data_path(tuple(error["loc"]), raw)
-        faults.setdefault(path, []).append(
-            error if _is_branch(error, path) else _message(error, root)
-        )
+    _collect(errors, root, raw, (), faults)
     problems: list[Problem] = []
     for path, found in faults.items():
         union = [e for e in found if isinstance(e, dict)]
@@ -44,6 +36,37 @@ def problems_from(
         )
         problems += [locate(marks, path, message, fallback) for message in messages]
     return problems
+
+
+def _collect(
+    errors: Sequence[ErrorDetails],
+    root: type[BaseModel],
+    raw: Any,
+    prefix: KeyPath,
+    faults: dict[KeyPath, list[str | ErrorDetails]],
+) -> None:
+    """Sort the errors of ``root`` validating ``raw`` (found at ``prefix``) by key path. A
+    registered spec's errors (``kinds.Nested``) are sorted within their entry."""
+    for error in errors:
+        cause = (error.get("ctx") or {}).get("error")
+        if isinstance(cause, SpecError):
+            for path, message in [(cause.path, str(cause)), *cause.also]:
+                faults.setdefault(tuple(path), []).append(message)
+            continue
+        path = _data_path(tuple(error["loc"]), raw)
+        if isinstance(cause, Nested):
+            _collect(cause.errors, cause.model, _value_at(raw, path), prefix + path, faults)
+            continue
+        faults.setdefault(prefix + path, []).append(
+            error if _is_branch(error, path) else _message(error, root)
+        )
+
+
+def _value_at(raw: Any, path: KeyPath) -> Any:
+    """The value at ``path`` (a path ``_data_path`` found in ``raw``)."""
+    for part in path:
+        raw = raw[part]
+    return raw
 
 
 def _is_branch(error: ErrorDetails, path: KeyPath) -> bool:
@@ -106,7 +129,7 @@ def _data_path(loc: tuple, raw: Any) -> KeyPath:
         if isinstance(node, dict) and part in node:
             node = node[part]
             path.append(part)
-        elif isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node):
+        elif isinstance(node, (list, tuple)) and isinstance(part, int) and 0 <= part < len(node):
             node = node[part]
             path.append(part)
         elif isinstance(node, dict) and isinstance(part, str) and not _is_tag(part, node):

@@ -66,9 +66,12 @@ def _width(channels: tuple[str, ...], widths: dict[str, int], semantic: str) -> 
 
 
 def _parts(agent: AgentSpec) -> int:
-    """The body parts after the base: head, arm segments, graspers."""
-    return (agent.head is not None) + sum(
-        len(arm.segments) + (arm.grasper is not None) for arm in agent.arms
+    """The body parts after the base: head, arm segments, graspers, and the entries of
+    ``parts`` (kinds registered from outside, counted one each)."""
+    return (
+        (agent.head is not None)
+        + sum(len(arm.segments) + (arm.grasper is not None) for arm in agent.arms)
+        + len(agent.parts)
     )
 
 

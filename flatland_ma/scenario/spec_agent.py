@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from flatland_ma.scenario.kinds import SpecKinds
 from flatland_ma.scenario.types import (
     MAX_ARENA_SIDE,
     Color,
@@ -53,12 +54,23 @@ class NoiseSpec(Spec):
 
 
 class SensorBaseSpec(Spec):
-    """What every sensor's spec has: a name and its noise."""
+    """What every sensor's spec has: a name and its noise. A sensor's spec subclasses it
+    with ``type: Literal["..."]`` (its kind) and its own keys; one without a ``mount`` key
+    sits on the base."""
+
+    if TYPE_CHECKING:  # each sensor's spec declares it, as a ``Literal``
+        type: Any  # (str: pyright holds a Literal override to the base)
 
     name: Name | None = None
     """Its observation's key when an agent has several sensors; none: its type."""
     noise: NoiseSpec | None = None
     """Noise on its readings; none (the default): exact readings."""
+
+    @property
+    def mounted_on(self) -> str:
+        """What it sits on: its ``mount`` (``base`` or ``head``), or ``base`` for a sensor
+        whose spec has no ``mount`` key."""
+        return str(getattr(self, "mount", "base"))
 
 
 class CameraSpec(SensorBaseSpec):
@@ -225,11 +237,37 @@ class SmellSpec(SensorBaseSpec):
         return self
 
 
-SensorSpec = Annotated[
-    CameraSpec | LidarSpec | ProprioceptionSpec | TopdownSpec | TouchSpec | SmellSpec,
-    Field(discriminator="type"),
-]
-"""Every sensor a file may declare, by its ``type``; a new sensor adds its spec here."""
+SENSORS = SpecKinds("sensor", "type", SensorBaseSpec)
+"""Every sensor's spec, by its ``type``: the shipped ones, and those registered with
+``flatland_ma.register`` or an entry point (``flatland_ma.extensions``)."""
+for _spec in (CameraSpec, LidarSpec, ProprioceptionSpec, TopdownSpec, TouchSpec, SmellSpec):
+    SENSORS.add(_spec)
+
+if TYPE_CHECKING:
+    SensorSpec = SensorBaseSpec
+else:
+    SensorSpec = SENSORS.field
+    """A sensor in a file: a mapping whose ``type`` picks its spec in ``SENSORS``."""
+
+
+class PartBaseSpec(Spec):
+    """What every part listed in an agent's ``parts`` is: a part kind's spec subclasses it
+    with ``type: Literal["..."]`` (its kind) and its own keys. (The shipped parts, heads
+    and arms, have keys of their own: ``head``, ``arms``.)"""
+
+    if TYPE_CHECKING:  # each part's spec declares it, as a ``Literal``
+        type: Any  # (str: pyright holds a Literal override to the base)
+
+
+PARTS = SpecKinds("part", "type", PartBaseSpec)
+"""Every spec of a part kind listed under ``parts``, by its ``type``: those registered
+with ``flatland_ma.register`` or an entry point."""
+
+if TYPE_CHECKING:
+    PartSpec = PartBaseSpec
+else:
+    PartSpec = PARTS.field
+    """A part in a file: a mapping whose ``type`` picks its spec in ``PARTS``."""
 
 
 class SpawnSpec(Spec):
@@ -332,14 +370,17 @@ class AgentSpec(Spec):
     """The first-person camera: the agent's one sensor, unless ``sensors`` is given (then
     this key is not used)."""
     sensors: Annotated[tuple[SensorSpec, ...], Field(max_length=16)] | None = None
-    """Several sensors instead of the one ``camera``, each with its ``type`` (``camera``,
-    ``lidar``, ``proprioception``, ``topdown``, ``touch``, ``smell``); their names (type,
-    unless given) must differ, and the observation is then a mapping from name to each
-    sensor's."""
+    """Several sensors instead of the one ``camera``, each with its ``type``: ``camera``,
+    ``lidar``, ``proprioception``, ``topdown``, ``touch``, ``smell``, or a kind registered
+    from another package (``flatland_ma.register``). Their names (type, unless given) must
+    differ, and the observation is then a mapping from name to each sensor's."""
     head: HeadSpec | None = None
     """A head that turns relative to the base (for a camera that looks around)."""
     arms: Annotated[tuple[ArmSpec, ...], Field(max_length=4)] = ()
     """Arms on the base's rim, for pushing, grasping and carrying."""
+    parts: Annotated[tuple[PartSpec, ...], Field(max_length=8)] = ()
+    """Parts of kinds registered from another package (``flatland_ma.register``), each
+    with its ``type``; built after the head and arms, their controls after theirs."""
     spawn: SpawnSpec = SpawnSpec()
     """Where and how agents start."""
 
@@ -360,7 +401,9 @@ class AgentSpec(Spec):
     @model_validator(mode="after")
     def _parts(self):
         for sensor in self.sensor_specs:
-            if sensor.mount == "head" and self.head is None:
+            if sensor.mounted_on not in ("base", "head"):
+                raise ValueError(f"a {sensor.type}'s mount is 'base' or 'head'")
+            if sensor.mounted_on == "head" and self.head is None:
                 raise ValueError(f"a {sensor.type} mounted on the head needs a 'head'")
         names = [sensor.name or sensor.type for sensor in self.sensor_specs]
         for name in names:

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
 from flatland_ma.scenario.budget import MAX_GROUPS
+from flatland_ma.scenario.kinds import SpecKinds
 from flatland_ma.scenario.types import (
     MIN_LENGTH,
     Color,
@@ -225,7 +226,15 @@ class ZoneSpec(Spec):
         return self
 
 
-class GridRoomsSpec(Spec):
+class GeneratorBaseSpec(Spec):
+    """What every generator's spec is: it subclasses this with ``generator:
+    Literal["..."]`` (its kind) and its own keys."""
+
+    if TYPE_CHECKING:  # each generator's spec declares it, as a ``Literal``
+        generator: Any  # (str: pyright holds a Literal override to the base)
+
+
+class GridRoomsSpec(GeneratorBaseSpec):
     """``rows`` x ``cols`` equal rooms filling the arena, with one opening at a random place
     in every wall two rooms share (so every room is reachable)."""
 
@@ -247,7 +256,7 @@ class GridRoomsSpec(Spec):
     """None: the arena's wall texture."""
 
 
-class MazeSpec(Spec):
+class MazeSpec(GeneratorBaseSpec):
     """A perfect maze (one path between any two cells) of square cells over the arena;
     ``loops`` > 0 removes that fraction of the remaining inner walls at random."""
 
@@ -266,7 +275,7 @@ class MazeSpec(Spec):
     """None: the arena's wall texture."""
 
 
-class RandomObstaclesSpec(Spec):
+class RandomObstaclesSpec(GeneratorBaseSpec):
     """Obstacles scattered at random, never overlapping anything, never cutting off a
     part of the arena from the agents."""
 
@@ -288,9 +297,17 @@ class RandomObstaclesSpec(Spec):
     """Least clearance around each obstacle, so that agents can pass between them."""
 
 
-Generator = Annotated[
-    GridRoomsSpec | MazeSpec | RandomObstaclesSpec, Field(discriminator="generator")
-]
+GENERATORS = SpecKinds("generator", "generator", GeneratorBaseSpec)
+"""Every generator's spec, by its ``generator``: the shipped ones, and those registered
+with ``flatland_ma.register`` or an entry point (``flatland_ma.extensions``)."""
+for _spec in (GridRoomsSpec, MazeSpec, RandomObstaclesSpec):
+    GENERATORS.add(_spec)
+
+if TYPE_CHECKING:  # the shipped ones, which the checks here look into by their tag
+    Generator = GridRoomsSpec | MazeSpec | RandomObstaclesSpec
+else:
+    Generator = GENERATORS.field
+    """A generator in a file: a mapping whose ``generator`` picks its spec."""
 
 
 class LayoutSpec(Spec):

@@ -32,8 +32,10 @@ class Proprioception(Sensor, kind="proprioception"):
 
     @classmethod
     def from_spec(cls, values: dict, parts: list) -> Proprioception:
-        joints = sum(1 for p in parts if p.kind in ("head", "arm_segment"))
-        hands = sum(1 for p in parts if p.kind == "grasper")
+        """Sized from the parts it is given, whatever their kinds: one entry per part
+        that is ``jointed`` (the agent's ``links``, in build order), one per hand."""
+        joints = sum(1 for p in parts if p.jointed)
+        hands = sum(1 for p in parts if p.holds)
         return cls(joints=joints, hands=hands, **values)
 
     def read(self, results, k: int) -> np.ndarray:
@@ -49,5 +51,5 @@ class Proprioception(Sensor, kind="proprioception"):
         for link in agent.links:
             lo, hi = link.limits
             out.append(2.0 * (link.angle_to_parent - lo) / (hi - lo) - 1.0)
-        out += [0.0 if hand.held is None else 1.0 for hand in agent.hands]
+        out += [0.0 if part.held is None else 1.0 for part in agent.parts if part.holds]
         return np.clip(np.asarray(out, np.float32), -1.0, 1.0)

@@ -7,16 +7,43 @@ at which angles from the heading of what they are mounted on, how far they see, 
 colour fades with distance; the suite packs them and hands each its slice of the results.
 
 A new sensor is one subclass, named by its ``kind`` in the class statement (the ``type``
-its scenario spec carries), plus that spec; the builder finds it in ``SENSOR_KINDS``:
+its scenario spec carries), plus that spec (a subclass of
+``scenario.spec_agent.SensorBaseSpec`` with ``type: Literal["compass"]``), registered
+with ``flatland_ma.register(CompassSpec, Compass)`` (or an entry point; see
+``flatland_ma.extensions``); the builder finds it in ``SENSOR_KINDS`` and makes it with
+``from_spec``, which passes the spec's keys (but ``type`` and ``noise``; ``name`` is the
+observation's key) as keyword arguments:
 
     class Compass(Sensor, kind="compass"):
-        def __init__(self, name="compass", mount="base"):
-            ...
+        def __init__(self, name="compass"):
+            self.name = name
+            self.space = spaces.Box(-1.0, 1.0, (2,), np.float32)
 
-Required: ``name``, ``mount``, ``space``, ``read``. Ray sensors also set ``angles``,
-``view_range``, ``half_fov`` and ``falloff``; a sensor that depends on the agent's parts
-overrides ``from_spec``, and one that depends on the episode (its world, its navigation
-grid) overrides ``attach``.
+        def read(self, results, k):
+            body = results.carriers[k].actor.body  # the agent's base (a pymunk.Body)
+            return np.array([math.cos(body.angle), math.sin(body.angle)], np.float32)
+
+Required: ``name``, ``space``, ``read``. ``mount`` is ``base`` unless the sensor sets it
+(``head``: it sits on the agent's head, and ``results.carriers[k]`` is the head's link).
+Ray sensors also set ``angles``, ``view_range``, ``half_fov`` and ``falloff``; a sensor
+that depends on the agent's parts overrides ``from_spec``, and one that depends on the
+episode (its world, its navigation grid) overrides ``attach``.
+
+``read(results, k)`` is called at each reset and step, after the physics, the rules and
+the one kernel call; ``results`` is the episode's sensor suite
+(``sensors.suite.Sensors``) and ``k`` this sensor's index in it. It returns a fresh array
+of the space's shape and dtype (the suite adds the noise and clips into the space). What
+it may read:
+
+- ``results.carriers[k]``: what carries it (the agent's ``AgentBody`` for ``base``, the
+  head's ``Link`` for ``head``); ``.actor`` is always the agent's ``AgentBody``: its
+  pymunk ``body`` (position, angle, velocity), ``max_speed``, ``max_turn_rate``,
+  ``parts``, ``links``, ``hands`` and ``owner`` (the agent's index);
+- ``results.world``: the episode's ``World`` (its ``entities``, ``zones``, contact
+  ``log``), ``results.grid``: its navigation grid;
+- for ray sensors, this sensor's rays at ``results.slices[k]`` of ``results.image``
+  (rays x 4: r, g, b, depth), ``results.distance`` and ``results.hit_entity`` (the
+  index of the entity hit, -1 for nothing).
 
 Optional: ``picture(reading)``, how the renderer's senses panel draws one reading, as a
 uint8 ``H x W x 3`` image (rows of a few pixels are drawn as strips, taller ones as an
@@ -47,8 +74,8 @@ class Sensor(Kinded, ABC):
     KINDS = SENSOR_KINDS
     name: str
     """The observation's key when an agent has several sensors."""
-    mount: str
-    """What it sits on: ``base`` (it turns with the agent) or ``head``."""
+    mount: str = "base"
+    """What it sits on: ``base`` (it turns with the agent; the default) or ``head``."""
     space: spaces.Space
     angles: np.ndarray = np.zeros(0)
     """Ray angles from the mount's heading, radians, counter-clockwise (none: no rays)."""
@@ -81,6 +108,7 @@ class Sensor(Kinded, ABC):
     @abstractmethod
     def read(self, results: Any, k: int) -> np.ndarray:
         """This step's observation (a fresh array in ``space``) of the suite's sensor
-        ``k`` (this one), from the suite's results: ``image``, ``distance``,
-        ``hit_entity`` per ray, this sensor's rays at ``slices[k]``, and what carries it
-        at ``carriers[k]`` (its agent's base, or head)."""
+        ``k`` (this one), from the suite's results (see the module docstring): what
+        carries it at ``carriers[k]`` (``carriers[k].actor`` is its agent's body),
+        ``world``, and per ray ``image``, ``distance``, ``hit_entity``, this sensor's
+        rays at ``slices[k]``."""
