@@ -71,6 +71,13 @@ def add_parser(commands) -> argparse.ArgumentParser:
         default=Limits.fps,
         help=f"frames a second an episode sends at most (default: {Limits.fps:g})",
     )
+    studio.add_argument(
+        "--gif-frames",
+        type=options.positive(options.MAX_FRAMES),
+        default=Limits.recorded_frames,
+        help="frames an episode keeps for its GIF, the latest ones (default: "
+        f"{Limits.recorded_frames}; tens of kB each)",
+    )
     return studio
 
 
@@ -96,7 +103,7 @@ def config_of(args) -> StudioConfig:
         checkpoints=args.checkpoints,
         token=None if local else secrets.token_urlsafe(24),
         scores=args.scores,
-        limits=Limits(episodes=args.episodes, fps=args.fps),
+        limits=Limits(episodes=args.episodes, fps=args.fps, recorded_frames=args.gif_frames),
     )
 
 

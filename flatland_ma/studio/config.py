@@ -23,8 +23,8 @@ class Limits:
     """A WebSocket message from a client."""
     file_bytes: int = 512 * 1024
     """A scenario file read from or written to a folder."""
-    recorded_frames: int = 600
-    """Frames kept per episode for its GIF (the latest ones)."""
+    recorded_frames: int = 300
+    """Frames kept per episode for its GIF (the latest ones, as sent: 20-60 kB each)."""
     work: int = 2
     """Scenario checks and pictures made at once (each takes a thread)."""
     pictures: int = 256

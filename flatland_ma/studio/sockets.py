@@ -14,6 +14,7 @@ import asyncio
 import collections
 import json
 import secrets
+import time
 from dataclasses import dataclass, field
 
 import anyio
@@ -61,6 +62,8 @@ class Hub:
         key = secrets.token_urlsafe(12)
         try:
             await Connection(self, ws, key).run()
+        except WebSocketDisconnect:  # the page left while a frame was on its way
+            pass
         finally:
             self.running -= 1
             self.recordings.pop(key, None)
@@ -221,20 +224,24 @@ class Connection:
     async def _tick(self) -> None:
         episode = self.episode
         assert episode is not None
+        began = time.time()
         if isinstance(episode, Play):
             keys = Keys(frozenset(self.pressed), frozenset(self.held))
             self.pressed = set()
             if await anyio.to_thread.run_sync(episode.advance, keys):
-                await self._send_frame()
+                await self._send_frame(began)
             return
         if self.steps_asked:
             self.steps_asked -= 1
         if await anyio.to_thread.run_sync(episode.advance):
-            await self._send_frame()
+            await self._send_frame(began)
         if episode.done:
             self.running, self.steps_asked = False, 0
 
-    async def _send_frame(self) -> None:
+    async def _send_frame(self, began: float | None = None) -> None:
+        """The state (``began``: the wall-clock time its step began, for latency) and
+        the picture."""
+        began = time.time() if began is None else began
         episode = self.episode
         assert episode is not None
         recording = self.hub.recordings[self.key]
@@ -244,5 +251,5 @@ class Connection:
 
         state, picture = await anyio.to_thread.run_sync(draw)
         recording.frames.append(picture)
-        await self.ws.send_text(json.dumps({"type": "state", **state}))
+        await self.ws.send_text(json.dumps({"type": "state", **state, "began": began}))
         await self.ws.send_bytes(picture)
