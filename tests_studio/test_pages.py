@@ -164,3 +164,23 @@ def test_screenshots_of_each_page(page):
     for name in ("gallery", "editor", "watch", "play"):
         with Image.open(SHOTS / f"{name}.png") as shot:
             assert shot.size == (1280, 900)
+
+
+def test_the_editor_completes_and_explains_keys_from_the_schema(page):
+    open_editor(page, "fruits_poisons")
+    page.evaluate(
+        """() => {
+            const view = window.studioEditor;
+            const text = view.state.doc.toString();
+            const at = text.indexOf("  max_steps: 500") + "  max_steps: 500".length;
+            view.dispatch({changes: {from: at, insert: "\\n  sha"}, selection: {anchor: at + 6}});
+            view.focus();
+        }"""
+    )
+    page.keyboard.press("Control+Space")
+    options = page.wait_for_selector(".cm-tooltip-autocomplete")
+    assert "shared_end" in options.inner_text()  # a key of episode:, where the cursor is
+    page.keyboard.press("Escape")
+    page.hover(".cm-line:has-text('n_agents') >> text=n_agents")
+    hover = page.wait_for_selector(".cm-tooltip-hover .hover")
+    assert hover.inner_text().startswith("n_agents: integer")
