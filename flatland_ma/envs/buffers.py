@@ -3,13 +3,13 @@ space), one slot per agent of every world, the info counters, and each world's s
 
 from __future__ import annotations
 
-from typing import TypeGuard
+from typing import Any, TypeGuard
 
 import gymnasium
 import numpy as np
 
 
-def stacked(space: gymnasium.Space, n: int):
+def stacked(space: gymnasium.Space, n: int) -> Any:
     """Zeros for ``n`` stacked values of ``space`` (a dict of them for a ``Dict``)."""
     if isinstance(space, gymnasium.spaces.Dict):
         return {key: stacked(sub, n) for key, sub in space.spaces.items()}
@@ -33,7 +33,7 @@ def clear(buffer, slot: int) -> None:
         buffer[slot] = 0
 
 
-def copied(buffer):
+def copied(buffer) -> Any:
     if isinstance(buffer, dict):
         return {key: sub.copy() for key, sub in buffer.items()}
     return buffer.copy()

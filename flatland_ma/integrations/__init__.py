@@ -5,4 +5,6 @@ below imports this package.
 
 - ``discrete``: ``DiscreteActions``, one ``Discrete`` action per agent for scenarios with
   a channel (moves x words), for clients that take only ``Discrete`` or ``Box`` actions.
+- ``sb3``: ``SB3VecEnv``, Stable-Baselines3's ``VecEnv`` over the batched env, every agent
+  of every world a slot, with SB3's resets and no made-up transitions.
 """
