@@ -8,6 +8,8 @@ Each shipped task stream has an id too (``cross_objective`` ->
 ``flatland_ma/CrossObjectiveStream-v0``): one life through it for a learner that drives
 one agent (``flatland_ma.lifelong.StreamGymEnv``), with no time limit of Gymnasium's: the
 stream's worlds truncate their own episodes and the stream switches task.
+``gymnasium.make_vec`` on a stream id builds the stream's batched env
+(``flatland_ma.lifelong.gym_vector``: its worlds live one life together).
 """
 
 from __future__ import annotations
@@ -57,6 +59,7 @@ def register_stream_ids() -> list[str]:
         _register(
             stream_gym_id(name),
             entry_point="flatland_ma.lifelong.envs:StreamGymEnv",
+            vector_entry_point="flatland_ma.lifelong.gym_vector:make_stream_vector",
             kwargs={"stream": name},
         )
         for name in list_streams()

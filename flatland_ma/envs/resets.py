@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from gymnasium.vector import AutoresetMode
 
+from flatland_ma.envs.buffers import counter_array
 from flatland_ma.envs.flatten import FlatLayout
 
 RESET_MASK = "reset_mask"
@@ -114,6 +115,8 @@ def final_infos(
         observations[slot] = observation
         mask[slot] = True
         for key, value in counted.items():
+            if key not in info:  # a counter the slots' current episodes lack
+                info[key] = counter_array(value, n)
             info[key][slot] = value
     return {
         FINAL_OBS: observations,

@@ -15,6 +15,12 @@ agents of every world: world ``w``'s ``j``-th focal agent is slot
 - the next step starts every world in the next task (its actions are not used; reward 0,
   neither termination nor truncation), world ``w`` seeded from the life's generator.
 
+With ``autoreset_mode="same_step"`` (``flatland_ma.envs.resets``) nothing waits for a
+step: a world whose episode ends resets in that step, and the step at which the segment
+ends also starts every world in the next task; the last observations and counters are in
+``infos["final_obs"]`` / ``infos["final_info"]`` (with the task that ended), Gymnasium's
+keys. ``DISABLED`` is not offered: a stream decides when its worlds start again.
+
 ``infos["task"]`` holds the task's index for every slot. ``reset(seed=s)`` starts the
 life: the first task's worlds reset with ``s + w``. ``state()`` holds each world's global
 state, padded to the stream's longest as in ``StreamParallelEnv``.
@@ -25,13 +31,16 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
 from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
+from flatland_ma.envs.resets import FINAL_INFO, FINAL_OBS, autoreset_mode_of, final_infos
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.lifelong.drift import Drift
 from flatland_ma.lifelong.envs import (
     TASK,
+    announce,
     announced,
     background_policies,
     padded_state,
@@ -41,12 +50,23 @@ from flatland_ma.lifelong.streams import Stream, load_stream
 
 
 def task_batched(
-    stream: Stream, task: int, num_worlds: int, copy: bool = False, parallel: bool = True
+    stream: Stream,
+    task: int,
+    num_worlds: int,
+    copy: bool = False,
+    parallel: bool = True,
+    autoreset_mode: AutoresetMode = AutoresetMode.NEXT_STEP,
+    render_mode: str | None = None,
 ) -> BatchedParallelEnv:
     """The worlds of the stream's task ``task``, all agents slots, no switching (rays
     cast over numba's threads unless ``parallel`` is False)."""
     env = BatchedParallelEnv(
-        stream.scenarios[task], num_worlds=num_worlds, copy=copy, parallel=parallel
+        stream.scenarios[task],
+        num_worlds=num_worlds,
+        copy=copy,
+        parallel=parallel,
+        autoreset_mode=autoreset_mode,
+        render_mode=render_mode,
     )
     if stream.never_ending:
         for world in env.worlds:
@@ -57,7 +77,22 @@ def task_batched(
 class StreamBatchedEnv:
     """``num_worlds`` worlds living one life through ``stream``; see the module's docstring."""
 
-    def __init__(self, stream: Any, num_worlds: int = 1, copy: bool = True):
+    def __init__(
+        self,
+        stream: Any,
+        num_worlds: int = 1,
+        copy: bool = True,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        render_mode: str | None = None,
+    ):
+        self.autoreset_mode = autoreset_mode_of(autoreset_mode)
+        if self.autoreset_mode == AutoresetMode.DISABLED:
+            raise ValueError(
+                "a stream's worlds start again when the stream says (autoreset_mode "
+                "NEXT_STEP or SAME_STEP), not by reset_mask: DISABLED is not offered"
+            )
+        self.metadata = {"autoreset_mode": self.autoreset_mode, "render_modes": ["rgb_array"]}
+        self.render_mode = render_mode
         self.stream = load_stream(stream)
         self._guard = OneCaller("this stream's batched env")
         self.num_worlds = num_worlds
@@ -100,7 +135,13 @@ class StreamBatchedEnv:
 
     def _env(self, task: int) -> BatchedParallelEnv:
         if task not in self._envs:
-            self._envs[task] = task_batched(self.stream, task, self.num_worlds)
+            self._envs[task] = task_batched(
+                self.stream,
+                task,
+                self.num_worlds,
+                autoreset_mode=self.autoreset_mode,
+                render_mode=self.render_mode,
+            )
         return self._envs[task]
 
     def _slots(self) -> np.ndarray:
@@ -121,7 +162,7 @@ class StreamBatchedEnv:
         self.clock, self.segment, self._pending = 0, 0, False
         return self._start(seed)
 
-    def _start(self, seed):
+    def _start(self, seed) -> tuple[Any, dict[str, Any]]:
         env = self.env
         assert self._life is not None
         self._backgrounds = [
@@ -132,7 +173,8 @@ class StreamBatchedEnv:
         self._acting[:] = True
         rewards = np.zeros(self.num_slots)
         flags = np.zeros(self.num_slots, bool)
-        return self._out(observations, rewards, flags, flags, infos)[0::4]
+        out = self._out(observations, rewards, flags, flags, infos)
+        return out[0], out[4]
 
     def step(self, actions):
         """One step of every world: one action per focal slot (as ``BatchedParallelEnv``)."""
@@ -174,10 +216,43 @@ class StreamBatchedEnv:
             switch = infos["active"][slots] & ~done | done
             truncations = truncations | (infos["active"][slots] & ~done)
             self._pending = True
-        self._acting = infos["active"][slots] & ~(terminations | truncations)
+        if self.autoreset_mode == AutoresetMode.SAME_STEP:  # worlds that ended reset already
+            self._acting = env.acting()[slots]
+        else:
+            self._acting = infos["active"][slots] & ~(terminations | truncations)
         out = self._out(observations, rewards, terminations, truncations, infos)
         out[4]["task_switch"] = switch
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and self._pending:
+            return self._switch_now(out, switch)
         return out
+
+    def _switch_now(self, out: tuple, switch: np.ndarray) -> tuple:
+        """``SAME_STEP``: start the next task in this step; the slots that played keep
+        their last observations and counters (with the task that ended) in the infos."""
+        observations, rewards, terminations, truncations, infos = out
+        finals = {}
+        for k in np.flatnonzero(switch):
+            if infos.get(f"_{FINAL_OBS}", np.zeros(self.num_slots, bool))[k]:
+                last = infos[FINAL_OBS][k]  # its world had reset already in this step
+                counted = {key: values[k] for key, values in infos[FINAL_INFO].items()}
+            else:
+                last = _one(observations, int(k))
+                counted = {
+                    key: values[k]
+                    for key, values in infos.items()
+                    if "final" not in key and key not in ("active", "task_switch")
+                }
+            finals[int(k)] = (last, {**counted, "task_switch": True})
+        assert self._life is not None
+        self._pending = False
+        self.segment += 1
+        seeds = [int(s) for s in self._life.integers(2**31, size=self.num_worlds)]
+        fresh, started = self._start(seeds)
+        counters = {key: values for key, values in started.items() if key != "active"}
+        counters["task_switch"] = np.zeros(self.num_slots, bool)
+        started.update(final_infos(finals, counters, self.num_slots))
+        started["task_switch"] = switch
+        return fresh, rewards, terminations, truncations, started
 
     def _check(self, env: BatchedParallelEnv, actions: np.ndarray, slots: np.ndarray) -> None:
         """The learner's actions, checked before the partners act: an error names the
@@ -215,7 +290,9 @@ class StreamBatchedEnv:
                 full[slot] = policy.act(seen)
         return full
 
-    def _out(self, observations, rewards, terminations, truncations, infos):
+    def _out(
+        self, observations, rewards, terminations, truncations, infos
+    ) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         slots = self._slots()
         if isinstance(observations, dict):
             observations = {key: value[slots] for key, value in observations.items()}
@@ -227,8 +304,18 @@ class StreamBatchedEnv:
             if not isinstance(observations, dict):
                 observations = {"observation": observations}
             observations = {**observations, TASK: one_hot}
-        out_infos = {key: np.asarray(value)[slots] for key, value in infos.items()}
+        out_infos: dict[str, Any] = {
+            key: np.asarray(value)[slots] for key, value in infos.items() if key != FINAL_INFO
+        }
         out_infos[TASK] = np.full(self.num_slots, self.task, np.int64)
+        if FINAL_INFO in infos:  # SAME_STEP: the worlds that reset within the task
+            final = {key: np.asarray(value)[slots] for key, value in infos[FINAL_INFO].items()}
+            final[TASK] = out_infos[TASK].copy()
+            out_infos[FINAL_INFO] = final
+            if self.stream.spec.announce:
+                last = out_infos[FINAL_OBS]
+                for k in np.flatnonzero(out_infos[f"_{FINAL_OBS}"]):
+                    last[k] = announce(last[k], self.task, self.tasks)
         return observations, rewards, terminations, truncations, out_infos
 
     def state(self) -> np.ndarray:
@@ -237,6 +324,17 @@ class StreamBatchedEnv:
         with self._guard:
             return padded_state(self.env.state(), self.single_state_space.shape[0])
 
+    def render(self) -> tuple | None:
+        """With ``render_mode="rgb_array"``: every world's frame in the task on."""
+        return self.env.render()
+
     def close(self) -> None:
         for env in self._envs.values():
             env.close()
+
+
+def _one(observations, k: int):
+    """A copy of focal slot ``k``'s observation."""
+    if isinstance(observations, dict):
+        return {key: np.array(values[k]) for key, values in observations.items()}
+    return np.array(observations[k])
