@@ -278,3 +278,20 @@ def test_torchrl_wraps_make_vec_unchanged_and_sees_the_final_observations():
         np.testing.assert_array_equal(rollout["next", "reward"][:, t, 0].numpy(), rewards)
         np.testing.assert_array_equal(rollout["next", "truncated"][:, t, 0].numpy(), truncations)
     env.close()
+
+
+def test_padded_observations_flatten_with_their_role_entry():
+    """plate_relay's scout and runner observe differently: pad=True gives one Dict with a
+    role entry, and flatten=True lays that Dict out flat, role included."""
+    padded = BatchedParallelEnv("plate_relay", 2, max_cycles=5, pad=True)
+    flat = BatchedParallelEnv("plate_relay", 2, max_cycles=5, pad=True, flatten=True)
+    layout = FlatLayout(padded.single_observation_space)
+    assert flat.single_observation_space == layout.space
+    assert "role" in [part.name for part in flat.flat_layout()]
+    want, got = padded.reset(seed=1)[0], flat.reset(seed=1)[0]
+    for _ in range(7):  # through a reset (episodes of 5 steps)
+        for slot in range(padded.num_slots):
+            one = {key: values[slot] for key, values in want.items()}
+            np.testing.assert_array_equal(got[slot], layout.flatten(one))
+        actions = [padded.single_action_space.sample() for _ in range(padded.num_slots)]
+        want, got = padded.step(actions)[0], flat.step(actions)[0]

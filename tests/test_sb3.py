@@ -111,6 +111,16 @@ def test_dict_observations_and_ppo_learns_for_a_tiny_budget():
     flat.close()
 
 
+def test_sb3s_own_vec_env_checks_pass():
+    from stable_baselines3.common.vec_env import VecCheckNan
+
+    env = VecCheckNan(SB3VecEnv("fruits_poisons_multi", 2, max_cycles=5), raise_exception=True)
+    env.reset()
+    for t in range(12):  # through two resets
+        env.step(np.full(8, t % 3))
+    env.close()
+
+
 def test_attributes_images_and_refusals():
     env = SB3VecEnv("fruits_poisons_multi", 2, render_mode="rgb_array")
     assert env.get_attr("num_worlds") == [2] * 8 and env.env_is_wrapped(object) == [False] * 8
