@@ -17,15 +17,15 @@ from flatland_ma.lifelong.gym_vector import StreamVectorEnv
 STREAM = "flatland_ma/CrossObjectiveStream-v0"
 
 
-def _short(tmp_path, announce=False):
-    """Two tasks of 13 and 9 steps, twice; episodes of 5 steps end within the tasks."""
+def _short(tmp_path, announce=False, episode=5):
+    """Two tasks of 13 and 9 steps, twice; episodes of ``episode`` steps end within them."""
     path = tmp_path / "short.yaml"
     path.write_text(
         f"announce: {str(announce).lower()}\ncycles: 2\ntasks:\n"
         "  - name: paper\n    scenario: fruits_poisons\n    steps: 13\n"
-        "    overrides: {episode: {max_steps: 5}}\n"
+        f"    overrides: {{episode: {{max_steps: {episode}}}}}\n"
         "  - name: swapped\n    scenario: fruits_poisons\n    steps: 9\n"
-        "    overrides:\n      episode: {max_steps: 5}\n      items:\n"
+        f"    overrides:\n      episode: {{max_steps: {episode}}}\n      items:\n"
         "        - {name: fruits, color: orange, reward: -10, count: 10}\n"
         "        - {name: poisons, color: purple, reward: 10, count: 10}\n"
     )
@@ -93,3 +93,32 @@ def test_stream_ids_no_longer_fall_back_to_sync_vector_env_and_render():
     vector.close()
     with pytest.raises(ValueError, match="DISABLED is not offered"):
         gymnasium.make_vec(STREAM, 2, autoreset_mode=AutoresetMode.DISABLED)
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.SAME_STEP, AutoresetMode.NEXT_STEP])
+def test_several_worlds_play_the_first_task_as_separate_lives_do_until_the_switch(tmp_path, mode):
+    """Three worlds, episodes of 2 steps: until the step at which the shared clock reaches
+    the first task's 13 agent-steps, each world is SyncVectorEnv's world over a life of its
+    own, through episode ends; at that step the one life switches, the three do not."""
+    stream = _short(tmp_path, episode=2)
+    vector = gymnasium.make_vec(STREAM, 3, stream=stream, autoreset_mode=mode)
+    reference = gymnasium.make_vec(
+        STREAM, 3, vectorization_mode="sync", vector_kwargs={"autoreset_mode": mode}, stream=stream
+    )
+    assert data_equivalence(vector.reset(seed=8), reference.reset(seed=8), exact=True)
+    rng = np.random.default_rng(2)
+    ended = 0
+    for t in range(10):
+        actions = rng.integers(0, 3, 3)
+        got, want = vector.step(actions), reference.step(actions)
+        if _switched(got[4]):
+            break
+        assert data_equivalence(got, want, exact=True), t
+        ended += int(got[3].sum())
+    assert _switched(got[4]) and not _switched(want[4]) and ended >= 3
+    vector.close()
+    reference.close()
+
+
+def _switched(infos: dict) -> bool:
+    return "task_switch" in infos or "task_switch" in infos.get("final_info", {})
