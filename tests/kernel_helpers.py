@@ -38,12 +38,14 @@ def cast(
     grid=True,
     cells=64,
     textures=None,
+    observe=kernel.observe,
 ):
     """Cast rays at ``angles`` (radians, relative to the eye heading).
 
     Entities are numbered polygons first, then circles. ``textures``: per entity None or
     (kind, period, duty, seed, second colour). Shapes on no body are fixed: binned in the
-    grid unless ``grid=False``. Returns (distance, entity, image).
+    grid unless ``grid=False``. ``observe``: the kernel to call. Returns (distance, entity,
+    image).
     """
     poly_body = [-1] * len(polygons) if polygon_bodies is None else list(polygon_bodies)
     circ_body = [-1] * len(circles) if circle_bodies is None else list(circle_bodies)
@@ -76,7 +78,7 @@ def cast(
     )
     out = Outputs.zeros(len(angles))
     pose = np.array(poses if poses is not None else np.zeros((0, 3)), np.float64).reshape(-1, 3)
-    kernel.observe(pose, shapes, fixed_grid, looks, eyes, out, Scratch.for_shapes(shapes))
+    observe(pose, shapes, fixed_grid, looks, eyes, out, Scratch.for_shapes(shapes))
     return out.distance, out.hit_entity, out.image
 
 

@@ -1,11 +1,16 @@
 """The ray kernel against analytic geometry."""
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from flatland_ma.sensors import kernel
+import flatland_ma
+from flatland_ma.sensors import cull, kernel
+from flatland_ma.sensors.scene import Outputs, pack_eyes, pack_scene
+from flatland_ma.sensors.suite import compiled_kernel
+from tests import kernel_reference
 from tests.kernel_helpers import box, cast, deg
 
 WALL = box(60.0, 0.0, 20.0, 400.0)  # its near face is the line x = 50
@@ -209,3 +214,138 @@ def test_an_eye_exactly_on_grid_lines_sees_the_wall():
         d_all, h_all, _ = cast([0.0, 0.3], eye=eye, polygons=walls, grid=False)
         np.testing.assert_allclose(d_grid, d_all, atol=1e-9)
         np.testing.assert_array_equal(h_grid, h_all)
+
+
+# The faster kernel (issue 29) against the frozen one before it: bit for bit.
+
+SCENARIOS = sorted(p.stem for p in (Path(__file__).parent.parent / "scenarios").glob("*.yaml"))
+
+
+def _outputs_equal(a: Outputs, b: Outputs) -> bool:
+    return all(x.tobytes() == y.tobytes() for x, y in zip(a, b))
+
+
+@pytest.mark.parametrize("name", SCENARIOS)
+def test_every_scenario_sees_bit_for_bit_what_the_old_kernel_saw(name):
+    env = flatland_ma.parallel_env(name)
+    env.reset(seed=3)
+    for a in env.possible_agents:
+        env.action_space(a).seed(7)
+    rays = 0
+    for _ in range(150):
+        if not env.agents:
+            env.reset()
+        env.step({a: env.action_space(a).sample() for a in env.agents})
+        sensors = env.running.sensors
+        args = sensors.kernel_args
+        old = Outputs.zeros(len(sensors.distance))
+        compiled_kernel(args, kernel_reference.observe)(*args[:5], old, args[6])
+        assert _outputs_equal(sensors.out, old), name
+        rays += len(old.distance)
+    assert rays > 0 or name in {"scent_rooms", "signal_maps"}  # the two without rays
+
+
+def _random_scene(rng):
+    """Fixed and moving polygons and circles, owners, textures and an eye, at random."""
+    n_poly, n_circ = 8, 14
+    polys = [box(0.0, 0.0, *rng.uniform(3, 90, 2)) for _ in range(n_poly)]
+    circles = [(*rng.uniform(-8, 8, 2), rng.uniform(1, 25)) for _ in range(n_circ)]
+    poses = [(*rng.uniform(-300, 300, 2), rng.uniform(-4, 4)) for _ in range(n_poly + n_circ)]
+    on_body = rng.random(n_poly + n_circ) < 0.6  # the rest are fixed, moved into the world
+    fixed_polys = [[(x + p[0], y + p[1]) for x, y in c] for c, p in zip(polys, poses)]
+    kinds = [None, (1, 9.0, 0.5, 0.0, (0.2, 0.9, 0.1)), (2, 14.0, 0.3, 5.0, (0.0, 0.0, 1.0))]
+    return dict(
+        polygons=[c if b else f for c, f, b in zip(polys, fixed_polys, on_body)],
+        circles=[
+            c if b else (c[0] + p[0], c[1] + p[1], c[2])
+            for c, p, b in zip(circles, poses[n_poly:], on_body[n_poly:])
+        ],
+        polygon_bodies=[k if b else -1 for k, b in enumerate(on_body[:n_poly])],
+        circle_bodies=[n_poly + k if b else -1 for k, b in enumerate(on_body[n_poly:])],
+        poses=poses,
+        owners=list(rng.integers(-1, 3, n_poly + n_circ)),
+        eye_owner=int(rng.integers(-1, 3)),
+        colors=rng.uniform(0, 1.2, (n_poly + n_circ, 3)),
+        textures=[kinds[int(rng.integers(3))] for _ in range(n_poly + n_circ)],
+        eye=(*rng.uniform(-420, 420, 2), rng.uniform(-4, 4)),  # in the grid and out of it
+        view_range=float(rng.choice([150.0, 400.0, 2000.0])),
+        cells=int(rng.choice([1, 16, 256])),
+    )
+
+
+def _fans(rng, n):
+    """Evenly spaced fans both ways, narrow to a full turn, and uneven ones."""
+    fov = float(rng.choice([0.2, 2.06, math.pi, 2 * math.pi - 0.01, 2 * math.pi]))
+    even = fov * (0.5 - (np.arange(n) + 0.5) / n)
+    return [even, even[::-1].copy(), np.sort(rng.uniform(-2, 2, n)), rng.uniform(-4, 4, n)]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_random_scenes_and_fans_give_bit_for_bit_what_the_old_kernel_gave(seed):
+    rng = np.random.default_rng(seed)
+    reference = kernel_reference.observe
+    for _ in range(12):
+        scene = _random_scene(rng)
+        for angles in _fans(rng, int(rng.choice([1, 2, 64, 333]))):
+            for falloff in (kernel.FALLOFF_LINEAR, kernel.FALLOFF_NONE):
+                half = float(np.abs(angles).max())
+                new = cast(angles, falloff=falloff, half_fov=half, **scene)
+                old = cast(angles, falloff=falloff, half_fov=half, observe=reference, **scene)
+                for x, y in zip(new, old):
+                    assert x.tobytes() == y.tobytes()
+
+
+def test_fast_atan2_is_within_its_stated_error():
+    rng = np.random.default_rng(0)
+    y, x = rng.normal(size=(2, 20_000)) * rng.choice([1e-6, 1.0, 1e6], (2, 20_000))
+    error = max(abs(cull.fast_atan2(a, b) - math.atan2(a, b)) for a, b in zip(y, x))
+    assert error < 2e-6 < cull.PAD / 10
+    for a, b in [(0.0, 1.0), (1.0, 0.0), (0.0, -1.0), (-1.0, 0.0), (0.0, 0.0), (1.0, 1.0)]:
+        assert cull.fast_atan2(a, b) == pytest.approx(math.atan2(a, b), abs=2e-6)
+
+
+@pytest.mark.parametrize("step_sign", [1.0, -1.0])
+def test_ray_span_holds_every_ray_within_the_width_and_few_others(step_sign):
+    rng = np.random.default_rng(1)
+    for n, fov in [(64, 2.06), (7, 0.3), (360, 2 * math.pi - 2 * math.pi / 360)]:
+        angles = step_sign * np.linspace(-fov / 2, fov / 2, n)
+        fan = np.array([angles[0], angles[1] - angles[0]])
+        for _ in range(300):
+            theta, width = rng.uniform(-2 * math.pi, 2 * math.pi), rng.uniform(0, 0.5)
+            first, last = cull.ray_span(fan, n, theta, width)
+            gap = np.abs((angles - theta + math.pi) % (2 * math.pi) - math.pi)
+            inside = np.flatnonzero(gap <= width)
+            if len(inside):
+                assert first <= inside.min() and inside.max() <= last
+            if first <= last and last - first + 1 < n:  # a span, not all rays: a tight one
+                assert last - first + 1 <= len(inside) + 2
+
+
+def test_uneven_or_single_rays_have_no_fan_and_are_all_tested():
+    eyes = pack_eyes(
+        body=[-1, -1, -1],
+        local=[(0.0, 0.0, 0.0)] * 3,
+        owner=[-1] * 3,
+        view_range=[1.0] * 3,
+        half_fov=[1.0] * 3,
+        falloff=[0] * 3,
+        angles=[np.array([0.5, 0.0, -0.5]), np.array([0.0, 0.1, 0.3]), np.array([0.2])],
+    )
+    np.testing.assert_array_equal(eyes.fan, [[0.5, -0.5], [0.0, 0.0], [0.2, 0.0]])
+    assert cull.ray_span(eyes.fan[1], 3, 2.5, 0.01) == (0, 2)
+
+
+def test_cells_are_marked_full_exactly_when_they_list_a_shape():
+    _, grid, _ = pack_scene(
+        [(box(0.0, 0.0, 10.0, 10.0), -1, 0), (box(200.0, 50.0, 300.0, 4.0), -1, 1)],
+        [((-90.0, 80.0, 6.0), 0.0, -1, 2)],
+        fixed=[True, True, True],
+        owner=[-1] * 3,
+        visible=[True] * 3,
+        colors=[(1.0,) * 6] * 3,
+        textures=[(0, 0.0, 0.0, 0.0)] * 3,
+        target_cells=100,
+    )
+    listed = (np.diff(grid.cell_seg_start) > 0) | (np.diff(grid.cell_circ_start) > 0)
+    np.testing.assert_array_equal(grid.cell_full, listed)
+    assert 0 < grid.cell_full.sum() < len(grid.cell_full)

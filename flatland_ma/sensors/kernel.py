@@ -14,14 +14,17 @@ and meaning is documented there):
   coordinates and moved to world coordinates at the start of each call; static shapes are
   stored in world coordinates;
 - ``Grid``: shapes that never move (walls, fixed obstacles, doors) binned in a uniform
-  grid. Each ray walks the cells it crosses, nearest first (a DDA), and stops once its
-  nearest hit lies before the cell's far edge. Everything else ("loose" shapes: agents,
-  items, movable things) is culled per eye by range and field of view into ``Scratch``,
-  then tested against every ray of that eye;
+  grid. Each ray walks the cells it crosses, nearest first (a DDA), tests the shapes of
+  those that list any, and stops once its nearest hit lies before the cell's far edge;
+  an eye inside the grid finds its cell once for all its rays. Everything else ("loose"
+  shapes: agents, items, movable things) is culled per eye by range and field of view
+  into ``Scratch``, each with the run of the eye's rays it subtends (``cull.py``); a ray
+  tests only the loose shapes whose run holds it;
 - ``Looks``: per entity an owner (the agent it belongs to, whose own eyes do not see it),
   a visibility flag, two colours and a texture (kind and parameters; see ``textures.py``);
 - ``Eyes``: per eye its body row and pose on the body, owner, range, half field of view,
-  falloff and its rays' directions;
+  falloff, its rays' directions and, when they are evenly spaced, their fan (first angle
+  and step);
 - ``Outputs``, per ray: the colour image (RGB times intensity, and normalised depth), the
   distance and the entity hit (-1 for none).
 
@@ -32,6 +35,10 @@ counting is not free: each inlined helper that takes the named tuples adds an in
 and decrement per array per call, which numba cannot prune across the helpers' branches
 and loops (numba issue #2350), and which made the kernel 2-3 times slower. An array
 allocated in the kernel would fail to compile.
+
+Every change for speed keeps the results bit for bit: each ray tests the same shapes in
+the same order with the same arithmetic, less those it cannot hit (tests/test_kernel.py
+holds it to a frozen copy of the kernel before them, tests/kernel_reference.py).
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ import math
 
 import numba as nb
 
+from flatland_ma.sensors.cull import cull, unseen
 from flatland_ma.sensors.scene import bin_fixed_shapes
 from flatland_ma.sensors.textures import shade
 
@@ -47,22 +55,6 @@ __all__ = ["FALLOFF_LINEAR", "FALLOFF_NONE", "bin_fixed_shapes", "observe"]
 
 FALLOFF_LINEAR = 0
 FALLOFF_NONE = 1
-
-
-@nb.njit(cache=True, inline="always")
-def _in_view(dx, dy, radius, view_range, hx, hy, half_fov):
-    """Can a disc at offset (dx, dy) from the eye be seen within range and field of view?"""
-    d2 = dx * dx + dy * dy
-    if d2 <= radius * radius:
-        return True
-    reach = view_range + radius
-    if d2 > reach * reach:
-        return False
-    d = math.sqrt(d2)
-    limit = half_fov + math.asin(radius / d)
-    if limit >= math.pi:
-        return True
-    return (dx * hx + dy * hy) >= d * math.cos(limit)
 
 
 @nb.njit(cache=True, inline="always")
@@ -100,12 +92,6 @@ def _circle_t(circ_world, s, ox, oy, dx, dy, best):
     if t < 0.0:  # the eye is inside the circle
         t = 0.0
     return t if t < best else -1.0
-
-
-@nb.njit(cache=True, inline="always")
-def _unseen(looks, entity, owner):
-    """Is the entity hidden, or part of the agent that owns the eye (owner -1: nobody)?"""
-    return not looks.visible[entity] or (owner >= 0 and looks.owner[entity] == owner)
 
 
 @nb.njit(cache=True, inline="always")
@@ -147,48 +133,23 @@ def _place_eye(pose, eyes, v):
 
 
 @nb.njit(cache=True, inline="always")
-def _cull(shapes, looks, scratch, owner, ox, oy, hx, hy, view_range, half_fov):
-    """List in ``scratch`` the loose shapes an eye at (ox, oy) heading (hx, hy) may see;
-    returns how many segments and circles it listed."""
-    seg = shapes.seg_world
-    n_seg = 0
-    for s in shapes.loose_seg:
-        if _unseen(looks, shapes.seg_entity[s], owner):
-            continue
-        x1, y1, x2, y2 = seg[s, 0], seg[s, 1], seg[s, 2], seg[s, 3]
-        half = 0.5 * math.sqrt((x2 - x1) ** 2 + (y2 - y1) ** 2)
-        mx, my = 0.5 * (x1 + x2) - ox, 0.5 * (y1 + y2) - oy
-        if _in_view(mx, my, half, view_range, hx, hy, half_fov):
-            scratch.cand_seg[n_seg] = s
-            n_seg += 1
-    circ = shapes.circ_world
-    n_circ = 0
-    for s in shapes.loose_circ:
-        if _unseen(looks, shapes.circ_entity[s], owner):
-            continue
-        dx, dy = circ[s, 0] - ox, circ[s, 1] - oy
-        if _in_view(dx, dy, circ[s, 2], view_range, hx, hy, half_fov):
-            scratch.cand_circ[n_circ] = s
-            n_circ += 1
-    return n_seg, n_circ
-
-
-@nb.njit(cache=True, inline="always")
-def _cast_loose(shapes, scratch, n_seg, n_circ, ox, oy, dx, dy, best):
-    """The nearest of the listed loose shapes nearer than ``best`` along the ray from
-    (ox, oy) in direction (dx, dy): (distance, segment, circle, fraction along the
-    segment), -1 for no segment or no circle."""
+def _cast_loose(shapes, scratch, n_seg, n_circ, q, ox, oy, dx, dy, best):
+    """The nearest of the listed loose shapes that ray q (of its eye) may hit, nearer
+    than ``best`` along the ray from (ox, oy) in direction (dx, dy): (distance, segment,
+    circle, fraction along the segment), -1 for no segment or no circle."""
     hit_seg, hit_circ, hit_along = -1, -1, 0.0
     for k in range(n_seg):
-        s = scratch.cand_seg[k]
-        t, along = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, best)
-        if t >= 0.0:
-            best, hit_seg, hit_along = t, s, along
+        if scratch.seg_rays[k, 0] <= q <= scratch.seg_rays[k, 1]:
+            s = scratch.cand_seg[k]
+            t, along = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, best)
+            if t >= 0.0:
+                best, hit_seg, hit_along = t, s, along
     for k in range(n_circ):
-        s = scratch.cand_circ[k]
-        t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, best)
-        if t >= 0.0:
-            best, hit_seg, hit_circ = t, -1, s
+        if scratch.circ_rays[k, 0] <= q <= scratch.circ_rays[k, 1]:
+            s = scratch.cand_circ[k]
+            t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, best)
+            if t >= 0.0:
+                best, hit_seg, hit_circ = t, -1, s
     return best, hit_seg, hit_circ, hit_along
 
 
@@ -198,14 +159,14 @@ def _cast_cell(shapes, grid, looks, k, owner, ox, oy, dx, dy, hit):
     best, hit_seg, hit_circ, hit_along = hit
     for q in range(grid.cell_seg_start[k], grid.cell_seg_start[k + 1]):
         s = grid.cell_seg[q]
-        if _unseen(looks, shapes.seg_entity[s], owner):
+        if unseen(looks, shapes.seg_entity[s], owner):
             continue
         t, along = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, best)
         if t >= 0.0:
             best, hit_seg, hit_circ, hit_along = t, s, -1, along
     for q in range(grid.cell_circ_start[k], grid.cell_circ_start[k + 1]):
         s = grid.cell_circ[q]
-        if _unseen(looks, shapes.circ_entity[s], owner):
+        if unseen(looks, shapes.circ_entity[s], owner):
             continue
         t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, best)
         if t >= 0.0:
@@ -237,38 +198,63 @@ def _grid_span(frame, ox, oy, dx, dy, best):
 
 
 @nb.njit(cache=True, inline="always")
-def _first_cell(o, d, lo, cell, n, t_in):
-    """Along one axis (ray origin o, direction d; grid from lo, n cells of side cell): the
-    cell the ray enters at t_in, the step to the next cell (+1 or -1), the distance at
-    which it crosses into the next cell, and the distance between crossings."""
-    i = min(n - 1, max(0, int((o + t_in * d - lo) / cell)))
-    step = 1 if d > 0 else -1
-    if abs(d) > 1e-12:
-        edge = lo + (i + (1 if d > 0 else 0)) * cell
-        return i, step, (edge - o) / d, cell / abs(d)
-    return i, step, math.inf, math.inf
+def _cell_of(o, lo, cell, n):
+    """The cell (along one axis, grid from lo, n cells of side cell) holding o."""
+    return min(n - 1, max(0, int((o - lo) / cell)))
 
 
 @nb.njit(cache=True, inline="always")
-def _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit):
-    """``hit`` updated with the fixed shapes: the ray walks the grid's cells from the eye
-    outwards (Amanatides-Woo) until its nearest hit lies before the cell's far edge."""
-    frame = grid.frame
-    t_in, t_out = _grid_span(frame, ox, oy, dx, dy, hit[0])
-    if t_in > t_out:
-        return hit
+def _crossings(o, d, lo, cell, i):
+    """Along one axis (ray origin o, direction d) from cell i: the step to the next cell
+    (+1 or -1), the distance at which the ray crosses into it, and the distance between
+    crossings."""
+    step = 1 if d > 0 else -1
+    if abs(d) > 1e-12:
+        edge = lo + (i + (1 if d > 0 else 0)) * cell
+        return step, (edge - o) / d, cell / abs(d)
+    return step, math.inf, math.inf
+
+
+@nb.njit(cache=True, inline="always")
+def _eye_cell(frame, ox, oy):
+    """The cell (column, row) of an eye strictly inside the grid, where all its rays start
+    their walk; (-1, -1) for an eye outside, whose rays each find where they enter."""
     gnx, gny = int(frame[3]), int(frame[4])
-    i, step_i, t_next_i, t_delta_i = _first_cell(ox, dx, frame[0], frame[2], gnx, t_in)
-    j, step_j, t_next_j, t_delta_j = _first_cell(oy, dy, frame[1], frame[2], gny, t_in)
+    x_in = frame[0] < ox < frame[0] + frame[2] * gnx
+    if not (x_in and frame[1] < oy < frame[1] + frame[2] * gny):
+        return -1, -1
+    return _cell_of(ox, frame[0], frame[2], gnx), _cell_of(oy, frame[1], frame[2], gny)
+
+
+@nb.njit(cache=True, inline="always")
+def _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit, i, j):
+    """``hit`` updated with the fixed shapes: the ray walks the grid's cells from the eye
+    outwards (Amanatides-Woo), testing the shapes of the cells that have any, until its
+    nearest hit lies before the cell's far edge. (i, j): the eye's cell, from
+    ``_eye_cell``."""
+    frame = grid.frame
+    gnx, gny = int(frame[3]), int(frame[4])
+    if i < 0:  # the eye is outside the grid (or on its edge): where does the ray enter?
+        t_in, t_out = _grid_span(frame, ox, oy, dx, dy, hit[0])
+        if t_in > t_out:
+            return hit
+        i = _cell_of(ox + t_in * dx, frame[0], frame[2], gnx)
+        j = _cell_of(oy + t_in * dy, frame[1], frame[2], gny)
+    step_i, t_next_i, t_delta_i = _crossings(ox, dx, frame[0], frame[2], i)
+    step_j, t_next_j, t_delta_j = _crossings(oy, dy, frame[1], frame[2], j)
+    k = j * gnx + i
     while True:
-        hit = _cast_cell(shapes, grid, looks, j * gnx + i, owner, ox, oy, dx, dy, hit)
+        if grid.cell_full[k]:
+            hit = _cast_cell(shapes, grid, looks, k, owner, ox, oy, dx, dy, hit)
         if hit[0] <= min(t_next_i, t_next_j):
             return hit
         if t_next_i < t_next_j:
             i += step_i
+            k += step_i
             t_next_i += t_delta_i
         else:
             j += step_j
+            k += step_j * gnx
             t_next_j += t_delta_j
         if i < 0 or j < 0 or i >= gnx or j >= gny:
             return hit
@@ -328,11 +314,17 @@ def observe(pose, shapes, grid, looks, eyes, out, scratch):
         owner = eyes.owner[v]
         view_range, half_fov = eyes.view_range[v], eyes.half_fov[v]
         linear = eyes.falloff[v] == FALLOFF_LINEAR
-        n_seg, n_circ = _cull(shapes, looks, scratch, owner, ox, oy, hx, hy, view_range, half_fov)
+        first_ray, n_rays = eyes.rays[v], eyes.rays[v + 1] - eyes.rays[v]
+        n_seg, n_circ = cull(
+            shapes, looks, scratch, eyes.fan[v], n_rays, owner, ox, oy, hx, hy, view_range, half_fov
+        )
+        cell_i, cell_j = _eye_cell(grid.frame, ox, oy)
         for r in range(eyes.rays[v], eyes.rays[v + 1]):
             lc, ls = eyes.ray_dir[r, 0], eyes.ray_dir[r, 1]
             dx = hx * lc - hy * ls
             dy = hy * lc + hx * ls
-            hit = _cast_loose(shapes, scratch, n_seg, n_circ, ox, oy, dx, dy, view_range)
-            hit = _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit)
+            hit = _cast_loose(
+                shapes, scratch, n_seg, n_circ, r - first_ray, ox, oy, dx, dy, view_range
+            )
+            hit = _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit, cell_i, cell_j)
             _record(pose, shapes, looks, out, r, ox, oy, dx, dy, hit, view_range, linear)

@@ -64,6 +64,8 @@ class Grid(NamedTuple):
     """(K + 1,) int32: where each cell's circles start in ``cell_circ``."""
     cell_circ: np.ndarray
     """int32: circle rows, cell after cell."""
+    cell_full: np.ndarray
+    """(K,) bool: whether cell k lists any shape (a ray crosses empty cells on this alone)."""
 
 
 class Looks(NamedTuple):
@@ -100,6 +102,10 @@ class Eyes(NamedTuple):
     """(V + 1,) int32: where each eye's rays start."""
     ray_dir: np.ndarray
     """(N, 2) float64: cosine and sine of each ray's angle from its eye's heading."""
+    fan: np.ndarray
+    """(V, 2) float64: the angle of the eye's first ray and the step from each ray to the
+    next, when its rays are evenly spaced (step 0 when they are not, or when there is only
+    one): the kernel tests a loose shape only on the rays whose angles it subtends."""
 
 
 class Outputs(NamedTuple):
@@ -126,11 +132,21 @@ class Scratch(NamedTuple):
     """(max(S, 1),) int32: segment rows; the kernel uses as many as it found."""
     cand_circ: np.ndarray
     """(max(C, 1),) int32: circle rows."""
+    seg_rays: np.ndarray
+    """(max(S, 1), 2) int32: the first and last ray of the eye (counted from its first)
+    that may hit each listed segment."""
+    circ_rays: np.ndarray
+    """(max(C, 1), 2) int32: likewise for each listed circle."""
 
     @classmethod
     def for_shapes(cls, shapes: Shapes) -> Scratch:
-        n_seg, n_circ = len(shapes.seg_local), len(shapes.circ_local)
-        return cls(np.zeros(max(n_seg, 1), np.int32), np.zeros(max(n_circ, 1), np.int32))
+        n_seg, n_circ = max(len(shapes.seg_local), 1), max(len(shapes.circ_local), 1)
+        return cls(
+            np.zeros(n_seg, np.int32),
+            np.zeros(n_circ, np.int32),
+            np.zeros((n_seg, 2), np.int32),
+            np.zeros((n_circ, 2), np.int32),
+        )
 
 
 def polygon_edges(corners: Sequence[Point]) -> tuple[list[tuple[float, ...]], list[float]]:
@@ -215,6 +231,15 @@ def pack_eyes(
     half field of view, falloff and its rays' angles from its heading (radians)."""
     starts = np.cumsum([0] + [len(a) for a in angles]).astype(np.int32)
     all_angles = np.concatenate([np.asarray(a, np.float64) for a in angles] or [np.zeros(0)])
+    fan = np.zeros((len(angles), 2), np.float64)
+    for v, a in enumerate(angles):
+        a = np.asarray(a, np.float64)
+        if len(a) > 1:
+            step = (a[-1] - a[0]) / (len(a) - 1)
+            even = np.abs(a - (a[0] + step * np.arange(len(a)))).max() <= 1e-9 * abs(step)
+            fan[v] = (a[0], step if even and step != 0.0 else 0.0)
+        elif len(a) == 1:
+            fan[v, 0] = a[0]
     return Eyes(
         body=np.array(body, np.int32),
         local=np.array(local, np.float64).reshape(-1, 3),
@@ -224,6 +249,7 @@ def pack_eyes(
         falloff=np.array(falloff, np.int32),
         rays=starts,
         ray_dir=np.stack([np.cos(all_angles), np.sin(all_angles)], axis=1),
+        fan=fan,
     )
 
 
@@ -241,7 +267,8 @@ def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells:
         boxes.append(np.concatenate([c[:, :2] - c[:, 2:3], c[:, :2] + c[:, 2:3]], axis=1))
     if not boxes:
         empty = np.zeros(2, np.int32)
-        return Grid(np.array([0.0, 0.0, 1.0, 1.0, 1.0]), empty, empty[:0], empty, empty[:0])
+        frame = np.array([0.0, 0.0, 1.0, 1.0, 1.0])
+        return Grid(frame, empty, empty[:0], empty, empty[:0], np.zeros(1, np.bool_))
     all_boxes = np.concatenate(boxes)
     x0, y0 = all_boxes[:, 0].min() - 1.0, all_boxes[:, 1].min() - 1.0
     x1, y1 = all_boxes[:, 2].max() + 1.0, all_boxes[:, 3].max() + 1.0
@@ -272,4 +299,5 @@ def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells:
     circ_start, circs = cells_of(
         np.flatnonzero(circ_fixed), boxes[-1] if circ_fixed.any() else None
     )
-    return Grid(frame, seg_start, segs, circ_start, circs)
+    full = (np.diff(seg_start) > 0) | (np.diff(circ_start) > 0)
+    return Grid(frame, seg_start, segs, circ_start, circs, full)
