@@ -38,6 +38,9 @@ FORBIDDEN = {
 }
 for _layer in ("scenario", "world", "sensors", "agents", "tasks", "build"):
     FORBIDDEN[_layer] += ["evaluation", "lifelong"]
+FORBIDDEN.update({"render": [], "play": [], "integrations": []})
+for _layer in FORBIDDEN:  # the top floors: the studio uses the rest, adapters serve clients
+    FORBIDDEN[_layer] += ["studio"] + (["integrations"] if _layer != "integrations" else [])
 """What each layer may not import: only the layers below it (the file format is at the
 bottom and apart: only build/ and what is above it read specs)."""
 
