@@ -349,3 +349,22 @@ def test_cells_are_marked_full_exactly_when_they_list_a_shape():
     listed = (np.diff(grid.cell_seg_start) > 0) | (np.diff(grid.cell_circ_start) > 0)
     np.testing.assert_array_equal(grid.cell_full, listed)
     assert 0 < grid.cell_full.sum() < len(grid.cell_full)
+
+
+def test_discs_wholly_behind_a_narrow_eye_are_out_of_view_as_the_cull_assumes():
+    rng = np.random.default_rng(2)
+    checked = 0
+    for _ in range(20_000):
+        heading = rng.uniform(-math.pi, math.pi)
+        hx, hy = math.cos(heading), math.sin(heading)
+        dx, dy = rng.uniform(-400, 400, 2)
+        radius = rng.uniform(0.1, 60.0)
+        half_fov = rng.uniform(0.0, cull.BEHIND_FOV)
+        if hx * dx + hy * dy < -radius and 4 * radius * radius < dx * dx + dy * dy:
+            assert not cull.in_view(dx, dy, radius, 1e4, hx, hy, half_fov)
+            first, last = cull.disc_rays(
+                dx, dy, radius, 1e4, hx, hy, half_fov, np.array([half_fov, -0.01]), 64
+            )
+            assert first > last
+            checked += 1
+    assert checked > 5_000

@@ -24,6 +24,12 @@ PAD = 1e-4
 """Radians by which the angles a disc subtends are widened: far above the error of
 ``_atan2`` (under 2e-6) and the rounding of the hit tests (about 1e-15 radians)."""
 
+BEHIND_FOV = 0.5 * math.pi - 1e-3
+"""Eyes whose half field of view is below this see nothing wholly behind them (a disc
+whose near side lies behind the line across the eye): ``in_view`` refuses such a disc by
+a margin of at least 1e-3 radians when it is less than twice its radius away, far above
+its rounding, so the cull refuses it without working its angles."""
+
 _ATAN = (
     0.9999772203139088,
     -0.3326228359852716,
@@ -103,6 +109,8 @@ def disc_rays(dx, dy, radius, view_range, hx, hy, half_fov, fan, n_rays):
     reach = view_range + radius
     if d2 > reach * reach:
         return 0, -1
+    if half_fov < BEHIND_FOV and hx * dx + hy * dy < -radius and 4.0 * radius * radius < d2:
+        return 0, -1  # wholly behind the eye, outside any field of view short of a half turn
     alpha = fast_atan2(radius, math.sqrt(d2 - radius * radius))
     theta = fast_atan2(hx * dy - hy * dx, hx * dx + hy * dy)
     limit = half_fov + alpha

@@ -133,24 +133,53 @@ def _place_eye(pose, eyes, v):
 
 
 @nb.njit(cache=True, inline="always")
-def _cast_loose(shapes, scratch, n_seg, n_circ, q, ox, oy, dx, dy, best):
-    """The nearest of the listed loose shapes that ray q (of its eye) may hit, nearer
-    than ``best`` along the ray from (ox, oy) in direction (dx, dy): (distance, segment,
-    circle, fraction along the segment), -1 for no segment or no circle."""
-    hit_seg, hit_circ, hit_along = -1, -1, 0.0
+def _ray(eyes, r, hx, hy):
+    """The direction of ray r of an eye heading (hx, hy)."""
+    lc, ls = eyes.ray_dir[r, 0], eyes.ray_dir[r, 1]
+    return hx * lc - hy * ls, hy * lc + hx * ls
+
+
+@nb.njit(cache=True, inline="always")
+def _cast_loose(shapes, eyes, scratch, out, v, n_seg, n_circ, ox, oy, hx, hy):
+    """The nearest listed loose shape along each ray of eye v, shape after shape over the
+    run of rays each may hit, into ``out``: the distance (the range if none) and the
+    shape (-1: none, s >= 0: segment s, -2 - c: circle c). Each ray tests its shapes in
+    the listed order, segments first, as if it went through them alone."""
+    first = eyes.rays[v]
+    for r in range(first, eyes.rays[v + 1]):
+        out.distance[r] = eyes.view_range[v]
+        out.hit_entity[r] = -1
     for k in range(n_seg):
-        if scratch.seg_rays[k, 0] <= q <= scratch.seg_rays[k, 1]:
-            s = scratch.cand_seg[k]
-            t, along = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, best)
+        s = scratch.cand_seg[k]
+        for r in range(first + scratch.seg_rays[k, 0], first + scratch.seg_rays[k, 1] + 1):
+            dx, dy = _ray(eyes, r, hx, hy)
+            t, _ = _segment_t(shapes.seg_world, s, ox, oy, dx, dy, out.distance[r])
             if t >= 0.0:
-                best, hit_seg, hit_along = t, s, along
+                out.distance[r] = t
+                out.hit_entity[r] = s
     for k in range(n_circ):
-        if scratch.circ_rays[k, 0] <= q <= scratch.circ_rays[k, 1]:
-            s = scratch.cand_circ[k]
-            t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, best)
+        s = scratch.cand_circ[k]
+        for r in range(first + scratch.circ_rays[k, 0], first + scratch.circ_rays[k, 1] + 1):
+            dx, dy = _ray(eyes, r, hx, hy)
+            t = _circle_t(shapes.circ_world, s, ox, oy, dx, dy, out.distance[r])
             if t >= 0.0:
-                best, hit_seg, hit_circ = t, -1, s
-    return best, hit_seg, hit_circ, hit_along
+                out.distance[r] = t
+                out.hit_entity[r] = -2 - s
+
+
+@nb.njit(cache=True, inline="always")
+def _loose_hit(shapes, out, r, ox, oy, dx, dy):
+    """Ray r's hit among the loose shapes, as ``_cast_loose`` left it: (distance, segment,
+    circle, fraction along the segment), -1 for no segment or no circle; the fraction is
+    worked again as ``_segment_t`` worked it (the same bits)."""
+    best, code = out.distance[r], out.hit_entity[r]
+    if code >= 0:
+        seg = shapes.seg_world
+        x1, y1 = seg[code, 0], seg[code, 1]
+        ex, ey = seg[code, 2] - x1, seg[code, 3] - y1
+        wx, wy = x1 - ox, y1 - oy
+        return best, code, -1, (wx * dy - wy * dx) / (dx * ey - dy * ex)
+    return best, -1, (-2 - code if code < -1 else -1), 0.0
 
 
 @nb.njit(cache=True, inline="always")
@@ -314,17 +343,14 @@ def observe(pose, shapes, grid, looks, eyes, out, scratch):
         owner = eyes.owner[v]
         view_range, half_fov = eyes.view_range[v], eyes.half_fov[v]
         linear = eyes.falloff[v] == FALLOFF_LINEAR
-        first_ray, n_rays = eyes.rays[v], eyes.rays[v + 1] - eyes.rays[v]
+        n_rays = eyes.rays[v + 1] - eyes.rays[v]
         n_seg, n_circ = cull(
             shapes, looks, scratch, eyes.fan[v], n_rays, owner, ox, oy, hx, hy, view_range, half_fov
         )
         cell_i, cell_j = _eye_cell(grid.frame, ox, oy)
+        _cast_loose(shapes, eyes, scratch, out, v, n_seg, n_circ, ox, oy, hx, hy)
         for r in range(eyes.rays[v], eyes.rays[v + 1]):
-            lc, ls = eyes.ray_dir[r, 0], eyes.ray_dir[r, 1]
-            dx = hx * lc - hy * ls
-            dy = hy * lc + hx * ls
-            hit = _cast_loose(
-                shapes, scratch, n_seg, n_circ, r - first_ray, ox, oy, dx, dy, view_range
-            )
+            dx, dy = _ray(eyes, r, hx, hy)
+            hit = _loose_hit(shapes, out, r, ox, oy, dx, dy)
             hit = _walk_grid(shapes, grid, looks, owner, ox, oy, dx, dy, hit, cell_i, cell_j)
             _record(pose, shapes, looks, out, r, ox, oy, dx, dy, hit, view_range, linear)
