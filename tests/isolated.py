@@ -10,8 +10,10 @@ Starting Python and importing the package and its compiled kernels takes seconds
 long to pay per case. So one *zygote* process per test process imports everything and
 warms up once (it builds and steps a few envs, which loads the kernels), then serves
 requests: for each it forks a child, which limits its own address space and CPU time and
-runs the case, and reports a JSON outcome through a pipe. The zygote kills the child
-(its process group) when the wall-clock limit passes. The child's peak resident memory
+runs the case, and reports a JSON outcome through a pipe. A case's time limit is CPU
+time (``RLIMIT_CPU``), which other processes on a busy machine do not eat into; the zygote
+also kills the child (its process group) when ``wall_guard`` seconds pass, to catch a case
+that hangs without using the CPU. The child's peak resident memory
 comes from ``wait4``. A fork of the warm zygote costs a few milliseconds.
 
 The zygote reads requests from its stdin and exits at end of file, so it ends with the
@@ -87,11 +89,15 @@ class Runner:
         memory_budget_mb: float = MEMORY_BUDGET_MB,
         steps: int = STEPS,
         prelude: str = "",
+        hang_after: float | None = None,
     ) -> Outcome:
         """Run a case: ``parallel_env(scenario, **overrides)``, then two resets and
         ``steps`` random steps after each. ``prelude`` is Python the child runs first,
-        under its limits (to test this runner with cases that hang, abort or allocate)."""
+        under its limits (to test this runner with cases that hang, abort or allocate).
+        ``time_limit`` is CPU seconds; ``hang_after`` the wall-clock seconds after which a
+        case is killed as hanging (default ``wall_guard(time_limit)``)."""
         request = {
+            "hang_after": hang_after,
             "scenario": str(scenario),
             "overrides": overrides or {},
             "time_limit": time_limit,
@@ -133,7 +139,8 @@ class Runner:
     def _ask(self, request: dict) -> Outcome:
         # The zygote may first import what the case needs warm (torch: seconds, or more on a
         # busy machine), then the case has its time limit.
-        wait = float(request["time_limit"]) + 30.0 + (300.0 if request.get("warm") else 0.0)
+        wait = _hang_after(request) + 30.0
+        wait += 300.0 if request.get("warm") else 0.0
         line = json.dumps(request, allow_nan=True) + "\n"
         process = self._started()
         try:
@@ -264,7 +271,7 @@ def run_forked(request: dict) -> Outcome:
         os.setpgid(pid, pid)  # also done by the child: whichever runs first
     except OSError:
         pass
-    data, waited = _collect(read_end, pid, start + time_limit)
+    data, waited = _collect(read_end, pid, start + _hang_after(request))
     os.close(read_end)
     timed_out = waited is None
     if timed_out:
@@ -277,7 +284,8 @@ def run_forked(request: dict) -> Outcome:
     except (ProcessLookupError, PermissionError):
         pass
     start_line, _, report = data.partition(b"\n")
-    outcome = _judge(report, status, timed_out, time_limit)
+    cpu_s = usage.ru_utime + usage.ru_stime
+    outcome = _judge(report, status, timed_out, time_limit, cpu_s, _hang_after(request))
     outcome.wall_s = wall
     outcome.peak_rss_mb = usage.ru_maxrss / 1024
     try:
@@ -322,9 +330,27 @@ def _kill(pid: int) -> None:
             continue
 
 
-def _judge(data: bytes, status: int, timed_out: bool, time_limit: float) -> Outcome:
+def wall_guard(time_limit: float) -> float:
+    """Wall-clock seconds after which a case that has not used up its CPU time is taken to
+    hang: a loaded machine may give a case a small share of a core."""
+    return max(6.0 * time_limit, 120.0)
+
+
+def _hang_after(request: dict) -> float:
+    given = request.get("hang_after")
+    return float(given) if given else wall_guard(float(request["time_limit"]))
+
+
+def _judge(
+    data: bytes, status: int, timed_out: bool, time_limit: float, cpu_s: float, hang: float
+) -> Outcome:
     if timed_out:
-        return Outcome("timeout", detail=f"still running after {time_limit:g} s; killed")
+        return Outcome("timeout", detail=f"still running after {hang:g} s (hangs); killed")
+    if os.WIFSIGNALED(status) and (
+        os.WTERMSIG(status) == signal.SIGXCPU
+        or (os.WTERMSIG(status) == signal.SIGKILL and cpu_s >= time_limit)
+    ):
+        return Outcome("timeout", detail=f"used its {time_limit:g} s of CPU time; killed")
     if os.WIFSIGNALED(status):
         name = signal.Signals(os.WTERMSIG(status)).name
         return Outcome("crashed", detail=f"killed by {name}")
@@ -385,12 +411,12 @@ def _quiet() -> None:
 
 
 def _limit(request: dict) -> None:
-    """Cap the address space at the current size plus the budget, and the CPU time just
-    above the wall-clock limit (in case the zygote cannot kill); no core files."""
+    """Cap the address space at the current size plus the budget, and the CPU time at the
+    case's time limit (SIGXCPU, then SIGKILL a second later); no core files."""
     vm = _status_kib("VmSize") * 1024
     budget = int(float(request["memory_budget_mb"]) * 1024 * 1024)
     resource.setrlimit(resource.RLIMIT_AS, (vm + budget, vm + budget))
-    cpu = math.ceil(float(request["time_limit"])) + 2
+    cpu = math.ceil(float(request["time_limit"]))
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
 
