@@ -62,6 +62,17 @@ def test_the_wheel_holds_every_scenario_file_as_package_data(wheel):
         assert missing == [], f"not in {wheel.name}: {folder}/{missing}"
 
 
+def test_the_wheel_holds_the_studios_built_pages(wheel):
+    """The studio needs no npm once installed: its built pages are package data."""
+    names = set(zipfile.ZipFile(wheel).namelist())
+    static = ROOT / "flatland_ma" / "studio" / "static"
+    built = sorted(str(p.relative_to(ROOT)) for p in static.rglob("*") if p.is_file())
+    assert "flatland_ma/studio/static/index.html" in built
+    assert any(name.endswith(".js") for name in built)
+    missing = [name for name in built if name not in names]
+    assert missing == [], f"not in {wheel.name}: {missing}"
+
+
 def test_the_build_prints_no_warning_from_our_configuration(wheel_log):
     """setuptools prints a warning block (``SetuptoolsDeprecationWarning``,
     ``BuildBackendWarning``) for what it dislikes in pyproject.toml: a license table, a
