@@ -109,7 +109,7 @@ def _row(label: str, rays: int, times: dict) -> str:
     cpu, wall = times["cpu"], times["wall"]
     rate = {k: rays / cpu[k] / 1e6 for k in cpu}
     return (
-        f"{label:34} {rate['old']:8.2f} {rate['new']:8.2f} {cpu['old'] / cpu['new']:7.2f}x"
+        f"{label:40} {rate['old']:8.2f} {rate['new']:8.2f} {cpu['old'] / cpu['new']:7.2f}x"
         f" {rays / wall['old'] / 1e6:8.2f} {rays / wall['new'] / 1e6:8.2f}"
     )
 
@@ -124,7 +124,7 @@ def main() -> None:
     print(f"clock {mhz:.0f} MHz, load {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     if mhz:
         print(f"physical estimate: {mhz / MIN_CYCLES:.1f} M rays/s/core ({MIN_CYCLES} cycles)")
-    print(f"{'M rays/s per core':34} {'before':>8} {'after':>8} {'ratio':>8} (wall: before, after)")
+    print(f"{'M rays/s per core':40} {'before':>8} {'after':>8} {'ratio':>8} (wall: before, after)")
     for name in SCENARIOS:
         env = _world(name, seed=0)
         args = env.running.sensors.kernel_args
