@@ -90,7 +90,7 @@ def test_record_reports_overrides_and_policies_that_cannot_work(tmp_path, capsys
     assert main(["record", "fruits_poisons", "--sensors", "lidar", "--out", out]) == 2
     assert "camera" in capsys.readouterr().err  # the greedy forager reads one
     assert main(["record", "fruits_poisons", "--agents", "0", "--out", out]) == 2
-    assert "n_agents" in capsys.readouterr().err
+    assert "--agents" in capsys.readouterr().err
 
 
 def test_the_gym_env_gives_frames_to_video_wrappers(tmp_path):
