@@ -14,6 +14,12 @@ command such as ``flatland-ma list`` starts quickly.
 from __future__ import annotations
 
 import importlib
+import os
+
+# OpenMP's idle threads (the ray kernel's, and torch's: one library) sleep instead of
+# spinning, unless the user chose otherwise. It must be set before OpenMP starts: importing
+# flatland_ma before torch does it (see flatland_ma.sensors.threads).
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 

@@ -10,7 +10,10 @@ threads ran at a sixth of their one-thread rate. Three things keep that from hap
 - ``usable_cpus`` counts the CPUs this process may use (affinity and cgroup quota), and
   ``fit_threads`` caps numba's thread count to it, unless ``NUMBA_NUM_THREADS`` was set;
 - OpenMP's idle threads sleep instead of spinning (``OMP_WAIT_POLICY=PASSIVE`` unless the
-  user chose otherwise), so a waiting thread gives its core back;
+  user chose otherwise), so a waiting thread gives its core back. OpenMP reads it once,
+  when it starts, and torch shares it: spinning threads left by the ray kernel made
+  torch's convolutions in the same process about 50 times slower. Importing
+  ``flatland_ma`` sets it; a program that imports torch first should set it itself;
 - ``Chooser`` times the parallel and the one-thread kernel as they run and keeps the faster,
   trying the other again now and then (less often each time it loses), so a batch falls
   back to one thread while the machine is busy and spreads out again when it is not. Both
