@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow test-rllib soak bench docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results
+.PHONY: demo test test-slow test-rllib test-clients soak bench docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -40,6 +40,28 @@ $(RLLIB)/.installed: pyproject.toml baselines/requirements-rllib.txt
 
 test-rllib: $(RLLIB)/.installed
 	$(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests_rllib
+
+# Every recipe of docs/integrations.md on every scenario type it lists (tests_clients/):
+# the clients extra's in .venv, AgileRL and BenchMARL each in an environment of its own
+# (.venv-clients-NAME from tests_clients/requirements-NAME.txt: their pins clash with ours),
+# RLlib in make test-rllib's.
+CLIENT_VENVS := agilerl benchmarl
+MAIN_CLIENTS := sb3 sb3-batched torchrl torchrl-batched skrl skrl-ippo tianshou cleanrl batched
+.venv-clients-%/.installed: pyproject.toml tests_clients/requirements-%.txt
+	$(PYTHON) -m venv .venv-clients-$*
+	.venv-clients-$*/bin/python -m pip install --quiet --upgrade pip
+	.venv-clients-$*/bin/python -m pip install --quiet "$(TORCH)" || \
+		.venv-clients-$*/bin/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
+	.venv-clients-$*/bin/python -m pip install --quiet -r tests_clients/requirements-$*.txt
+	.venv-clients-$*/bin/python -m pip install --quiet -e .
+	touch $@
+
+test-clients: $(STAMP) $(RLLIB)/.installed $(foreach c,$(CLIENT_VENVS),.venv-clients-$(c)/.installed)
+	FLATLAND_CLIENTS="$(MAIN_CLIENTS)" $(BIN)/python -m pytest -q -p no:cacheprovider tests_clients
+	FLATLAND_CLIENTS=rllib $(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests_clients
+	for c in $(CLIENT_VENVS); do \
+		FLATLAND_CLIENTS=$$c .venv-clients-$$c/bin/python -m pytest -q -p no:cacheprovider tests_clients || exit 1; \
+	done
 
 # A million agent-steps of fruits_poisons_multi and 500 env creations in one process: RSS
 # and agent-steps/s at start and end, growth after warm-up (tests/soak.py; fails at 5%).
@@ -132,9 +154,9 @@ reproduce-multi: $(STAMP)
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)
-	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
-	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_clients tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_clients tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
 	$(BIN)/pyright
 
 clean:
-	rm -rf $(VENV) $(RLLIB) demo .pytest_cache docs/_build docs/catalogue
+	rm -rf $(VENV) $(RLLIB) .venv-clients-* demo .pytest_cache docs/_build docs/catalogue

@@ -1,37 +1,54 @@
-"""Every recipe of docs/integrations.md runs as written, with its STEPS made small."""
+"""docs/integrations.md: every recipe of the main environment runs as written (the Box
+row, its STEPS made small), the glue table covers every client and scenario type, and a
+0 in it stands only where a recipe is run on that type (all types: make test-clients)."""
 
-import re
+import sys
 from pathlib import Path
 
 import pytest
 
-GUIDE = Path(__file__).resolve().parent.parent / "docs" / "integrations.md"
-SMALL = {"sb3": 256, "sb3-multi": 256, "torchrl": 20, "skrl": 10, "tianshou": 2,
-         "cleanrl": 520, "batched": 20}  # fmt: skip
-NEEDS = {"sb3": "stable_baselines3", "sb3-multi": "stable_baselines3", "torchrl": "torchrl",
-         "skrl": "skrl", "tianshou": "tianshou", "cleanrl": "gymnasium",
-         "batched": "numpy"}  # fmt: skip
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests_clients"))
+from recipes import (  # noqa: E402
+    CLIENT_OF,
+    COLUMNS,
+    GUIDE,
+    NEEDS,
+    covered,
+    glue_table,
+    recipes,
+    run,
+    scenarios,
+)
+
+MAIN_VENV = ["sb3", "sb3-batched", "torchrl", "torchrl-batched", "skrl", "tianshou",
+             "cleanrl", "batched"]  # fmt: skip
+"""Recipes whose clients are in the ``clients`` extra; AgileRL and BenchMARL run only in
+their own environments (make test-clients)."""
 
 
-def recipes() -> dict[str, str]:
-    text = GUIDE.read_text()
-    found = re.findall(r"<!-- recipe: ([\w-]+) -->\n```python\n(.*?)```", text, re.S)
-    return dict(found)
+def test_the_guide_has_every_recipe_and_each_lists_known_types():
+    assert set(recipes()) == set(NEEDS)
+    for name, (_, kinds) in recipes().items():
+        assert kinds and set(kinds) <= set(scenarios()), name
 
 
-def test_the_guide_has_every_recipe():
-    assert set(recipes()) == set(SMALL)
+@pytest.mark.parametrize("name", MAIN_VENV)
+def test_recipe_runs_as_written(name):
+    pytest.importorskip(NEEDS[name], reason=f"the {name} recipe needs {NEEDS[name]} (clients)")
+    run(name, "box")
 
 
-@pytest.mark.parametrize("name", sorted(SMALL))
-def test_recipe_runs(name):
-    pytest.importorskip(
-        NEEDS[name], reason=f"the {name} recipe needs {NEEDS[name]} (extra: clients)"
-    )
-    code = recipes()[name]
-    small, n = re.subn(r"^STEPS = [\d_]+$", f"STEPS = {SMALL[name]}", code, flags=re.M)
-    assert n == 1, "each recipe sets STEPS once"
-    exec(compile(small, f"{GUIDE.name}:{name}", "exec"), {"__name__": f"recipe_{name}"})
+def test_the_glue_table_has_every_client_and_type_and_zero_only_where_tested():
+    table = glue_table()
+    clients = set(CLIENT_OF.values()) | {"Ray RLlib"}
+    assert set(table) == clients
+    for client, row in table.items():
+        assert set(row) == set(COLUMNS), client
+        for column, cell in row.items():
+            if cell == "0" or cell.split()[0].isdigit():
+                assert covered(client, column), f"{client} / {column}: {cell} but no recipe runs it"
+            elif covered(client, column):
+                pytest.fail(f"{client} / {column} is run by a recipe, yet the table says {cell!r}")
 
 
 def test_the_rllib_lines_are_those_of_the_tested_script():
