@@ -45,7 +45,7 @@ def test_the_glue_table_has_every_client_and_type_and_zero_only_where_tested():
     for client, row in table.items():
         assert set(row) == set(COLUMNS), client
         for column, cell in row.items():
-            if cell == "0" or cell.split()[0].isdigit():
+            if cell[:1].isdigit():  # lines of glue: a recipe runs it
                 assert covered(client, column), f"{client} / {column}: {cell} but no recipe runs it"
             elif covered(client, column):
                 pytest.fail(f"{client} / {column} is run by a recipe, yet the table says {cell!r}")

@@ -7,4 +7,6 @@ below imports this package.
   a channel (moves x words), for clients that take only ``Discrete`` or ``Box`` actions.
 - ``sb3``: ``SB3VecEnv``, Stable-Baselines3's ``VecEnv`` over the batched env, every agent
   of every world a slot, with SB3's resets and no made-up transitions.
+- ``benchmarl``: ``flatland_task(scenario, **overrides)``, a BenchMARL task of any
+  scenario (flat observations, one ``Discrete`` action, the global state, masks).
 """
