@@ -37,6 +37,16 @@ class BenchResult:
     def physics_share(self) -> float:
         return self.env_steps_per_s / self.bare_steps_per_s
 
+    def machine(self) -> dict:
+        """The row's threads and what other processes did meanwhile, for JSON."""
+        load = self.load
+        return {
+            "threads": self.threads,
+            "other_cores": load.other_cores if load else None,
+            "load_average": load.load_average if load else None,
+            "busy": load.busy if load else None,
+        }
+
 
 def bench_gym(scenario: str, steps: int, seed: int = 0) -> BenchResult:
     """Steps per second of ``gymnasium.make(<id>)`` (with Gymnasium's own wrappers)."""

@@ -87,10 +87,7 @@ def run(args) -> int:
                 "env_steps_per_s": r.env_steps_per_s,
                 "agent_steps_per_s": r.agent_steps_per_s,
                 "bare_space_step_per_s": r.bare_steps_per_s,
-                "threads": r.threads,
-                "other_cores": r.load.other_cores if r.load else None,
-                "load_average": r.load.load_average if r.load else None,
-                "busy": r.load.busy if r.load else None,
+                **r.machine(),
             }
             for r in results
         ]
