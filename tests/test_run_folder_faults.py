@@ -218,7 +218,7 @@ def test_folders_fifos_devices_and_link_loops_where_a_file_belongs_are_refused(t
         cwd=ROOT,
         capture_output=True,
         text=True,
-        timeout=120,  # a hang is a failure; the reads themselves take milliseconds
+        timeout=600,  # a hang is a failure; the reads themselves take milliseconds
     )
     assert done.returncode == 0, done.stderr
     results = json.loads(done.stdout)
