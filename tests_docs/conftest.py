@@ -9,12 +9,11 @@ from __future__ import annotations
 
 import functools
 import http.server
-import tempfile
 import threading
 from collections.abc import Iterator
 
 import pytest
-from site_files import CHROMIUM, CHROMIUM_FLAGS, SITE
+from site_files import SITE, chromium
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
@@ -41,20 +40,5 @@ def site_url() -> Iterator[str]:
 @pytest.fixture(scope="session")
 def browser_context():
     """A Chromium context with a fresh profile, closed at the end of the session."""
-    from playwright.sync_api import sync_playwright
-
-    with tempfile.TemporaryDirectory(prefix="docs-chromium-") as profile:
-        with sync_playwright() as playwright:
-            context = playwright.chromium.launch_persistent_context(
-                profile,
-                executable_path=CHROMIUM,
-                headless=True,
-                args=CHROMIUM_FLAGS,
-                viewport={"width": 1280, "height": 800},
-            )
-            # A bound for a page that never loads, generous for a busy 2-core machine.
-            context.set_default_timeout(120_000)
-            try:
-                yield context
-            finally:
-                context.close()
+    with chromium("docs-chromium-", viewport={"width": 1280, "height": 800}) as context:
+        yield context

@@ -7,7 +7,6 @@ from __future__ import annotations
 import shutil
 import socket
 import sys
-import tempfile
 import threading
 import time
 from collections.abc import Iterator
@@ -17,7 +16,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests_docs"))
-from site_files import CHROMIUM, CHROMIUM_FLAGS  # noqa: E402
+from site_files import chromium  # noqa: E402
 
 STARTUP_BOUND = 120.0
 """Seconds the server may take to start on a busy machine before the session gives up."""
@@ -63,24 +62,10 @@ def studio_url(studio_folder, tmp_path_factory) -> Iterator[str]:
 @pytest.fixture(scope="session")
 def browser_context():
     """A Chromium context with a fresh profile, closed at the end of the session."""
-    from playwright.sync_api import sync_playwright
-
-    with tempfile.TemporaryDirectory(prefix="studio-chromium-") as profile:
-        with sync_playwright() as playwright:
-            context = playwright.chromium.launch_persistent_context(
-                profile,
-                executable_path=CHROMIUM,
-                headless=True,
-                args=CHROMIUM_FLAGS,
-                viewport={"width": 1280, "height": 900},
-                accept_downloads=True,
-            )
-            # A bound for a page that never loads, generous for a busy 2-core machine.
-            context.set_default_timeout(120_000)
-            try:
-                yield context
-            finally:
-                context.close()
+    with chromium(
+        "studio-chromium-", viewport={"width": 1280, "height": 900}, accept_downloads=True
+    ) as context:
+        yield context
 
 
 @pytest.fixture
