@@ -68,6 +68,18 @@ def test_the_interval_is_students_t_over_seeds():
     assert math.isnan(interval([0.3])[1]) and math.isnan(interval([float("nan")])[0])
 
 
+def test_forgetting_needs_a_block_after_the_task_and_before_the_last():
+    # Blocks only at the start and the end: task 0's training ends at 100, but no block
+    # falls in [100, 300), so its forgetting is undefined, as the last task's is.
+    steps = np.array([0.0, 300.0])
+    m = life_metrics(steps, np.array([[0.0, 0, 0], [0.5, 0.6, 0.9]]), SEGMENTS)
+    assert np.isnan(m.forgetting).all()
+    # The average of the table is then over no task; with a block at 200 it is task 0's
+    # and task 1's (the N-1 tasks before the last).
+    m = life_metrics(STEPS, normalise(RETURNS, np.zeros(3), np.full(3, 10.0)), SEGMENTS)
+    assert np.count_nonzero(~np.isnan(m.forgetting)) == 2
+
+
 def write_run(folder, seeds=(0, 1), shift=0.0):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "stream.json").write_text(
@@ -141,3 +153,31 @@ def test_bad_evaluation_files_are_refused_with_file_and_line(tmp_path, damage, w
         load_run(run)
     assert str(path) in str(caught.value)
     assert main(["lifelong", "report", str(run), "--no-plot"]) == 2
+
+
+def test_the_scale_falls_back_to_the_best_learner_where_the_reference_learnt_nothing(tmp_path):
+    folder = write_run(tmp_path / "run", seeds=(0,))
+    # The reference ends at random play (0) on task 2: the best any learner reached there
+    # (the fine-tuner's 9 at the last block) becomes the level.
+    csv = folder / "reference" / "seed_0" / "evaluations.csv"
+    rows = csv.read_text().splitlines()
+    csv.write_text(
+        "\n".join([r if not r.startswith("100,2,") else "100,2,1,0" for r in rows]) + "\n"
+    )
+    summary = summarise(load_run(folder))
+    assert summary["reference_final_return"] == [10.0, 10.0, 9.0]
+    # A task that no learner ever beats random play on gets random + 1, never a zero scale.
+    for name in ("finetune", "reference"):
+        path = folder / name / "seed_0" / "evaluations.csv"
+        lines = path.read_text().splitlines()
+        path.write_text(
+            "\n".join(
+                [lines[0]]
+                + [
+                    ln if ln.split(",")[1] != "2" else ln.rsplit(",", 1)[0] + ",-1"
+                    for ln in lines[1:]
+                ]
+            )
+            + "\n"
+        )
+    assert summarise(load_run(folder))["reference_final_return"][2] == 1.0
