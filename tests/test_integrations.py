@@ -20,8 +20,8 @@ from recipes import (  # noqa: E402
     scenarios,
 )
 
-MAIN_VENV = ["sb3", "sb3-batched", "torchrl", "torchrl-batched", "skrl", "tianshou",
-             "cleanrl", "batched"]  # fmt: skip
+MAIN_VENV = ["sb3", "sb3-batched", "torchrl", "torchrl-batched", "skrl", "skrl-batched",
+             "tianshou", "cleanrl", "batched"]  # fmt: skip
 """Recipes whose clients are in the ``clients`` extra; AgileRL and BenchMARL run only in
 their own environments (make test-clients)."""
 

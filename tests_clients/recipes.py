@@ -12,20 +12,20 @@ SCENARIO_LINE = 'SCENARIO, OPTIONS = "fruits_poisons_multi", {}'
 """The line every multi-scenario recipe starts from; the tests put each type's row in it."""
 
 SMALL = {"sb3": 256, "sb3-batched": 256, "torchrl": 20, "torchrl-batched": 20, "skrl": 40,
-         "tianshou": 100, "agilerl": 128, "benchmarl": 200, "rllib": 200, "cleanrl": 520,
-         "batched": 20}  # fmt: skip
+         "skrl-batched": 40, "tianshou": 100, "agilerl": 128, "benchmarl": 200, "rllib": 200,
+         "cleanrl": 520, "batched": 20}  # fmt: skip
 """Each recipe's ``STEPS`` in the tests."""
 
 NEEDS = {"sb3": "stable_baselines3", "sb3-batched": "stable_baselines3", "torchrl": "torchrl",
-         "torchrl-batched": "torchrl", "skrl": "skrl", "tianshou": "tianshou",
-         "agilerl": "agilerl", "benchmarl": "benchmarl", "rllib": "ray", "cleanrl": "gymnasium",
-         "batched": "numpy"}  # fmt: skip
+         "torchrl-batched": "torchrl", "skrl": "skrl", "skrl-batched": "skrl",
+         "tianshou": "tianshou", "agilerl": "agilerl", "benchmarl": "benchmarl", "rllib": "ray",
+         "cleanrl": "gymnasium", "batched": "numpy"}  # fmt: skip
 """The module each recipe imports its client from."""
 
 CLIENT_OF = {"sb3": "Stable-Baselines3", "sb3-batched": "Stable-Baselines3",
              "torchrl": "TorchRL", "torchrl-batched": "TorchRL", "skrl": "skrl",
-             "tianshou": "Tianshou", "agilerl": "AgileRL", "benchmarl": "BenchMARL",
-             "rllib": "Ray RLlib",
+             "skrl-batched": "skrl", "tianshou": "Tianshou", "agilerl": "AgileRL",
+             "benchmarl": "BenchMARL", "rllib": "Ray RLlib",
              "cleanrl": "CleanRL-style", "batched": "CleanRL-style"}  # fmt: skip
 """The glue table's row of each recipe."""
 
