@@ -46,7 +46,7 @@ test-rllib: $(RLLIB)/.installed
 # (.venv-clients-NAME from tests_clients/requirements-NAME.txt: their pins clash with ours),
 # RLlib in make test-rllib's.
 CLIENT_VENVS := agilerl benchmarl
-MAIN_CLIENTS := sb3 sb3-batched torchrl torchrl-batched skrl skrl-ippo tianshou cleanrl batched
+MAIN_CLIENTS := sb3 sb3-batched torchrl torchrl-batched skrl skrl-ippo skrl-batched tianshou cleanrl batched
 .venv-clients-%/.installed: pyproject.toml tests_clients/requirements-%.txt
 	$(PYTHON) -m venv .venv-clients-$*
 	.venv-clients-$*/bin/python -m pip install --quiet --upgrade pip
