@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow test-rllib test-clients soak bench docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results
+.PHONY: demo test test-slow test-rllib test-clients soak bench docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -151,6 +151,16 @@ reproduce-multi: $(STAMP)
 	$(BIN)/python -m baselines.run ppo --seeds 3 --workers $(WORKERS) --steps 1000000 --out runs
 	$(BIN)/python -m baselines.plot $(RUNS)/ppo/fruits_poisons_multi --labels "PPO (shared parameters)" \
 		--by-agent --references 20 --out docs/images/results_fruits_poisons_multi.png
+
+# Random play, the scripted reference and PPO (3 seeds each) on every shipped scenario and
+# stream (baselines/benchmark.yaml: budgets), one JSON per seed under results/benchmark/;
+# done seeds are skipped. benchmark-table rebuilds docs/benchmark.md from the JSON alone.
+benchmark: $(STAMP)
+	nice -n 10 $(BIN)/python -m baselines.benchmark
+	$(MAKE) benchmark-table
+
+benchmark-table: $(STAMP)
+	$(BIN)/python -m baselines.benchmark_table
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)

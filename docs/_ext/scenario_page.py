@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import os
 from pathlib import Path
 
 from pages import (
@@ -22,6 +24,9 @@ from flatland_ma.registration import gym_id
 from flatland_ma.scenario.loader import load_scenario, scenario_path
 from flatland_ma.scenario.schema import ScenarioSpec
 
+DOCS = Path(__file__).resolve().parent.parent
+BENCHMARK = DOCS.parent / "results" / "benchmark" / "summary.json"
+"""Each task's benchmark figures, written by ``make benchmark-table``."""
 EXAMPLE_SPEED = 150
 """The ``agent.max_speed`` of every page's override example (valid in every scenario)."""
 
@@ -54,9 +59,42 @@ def scenario_page(name: str, page_dir: Path, images: Path) -> str:
             f"{ref.min_score:g} over {ref.episodes} episodes.",
             "",
         ]
+    parts += _benchmark(name, page_dir)
     parts += _overrides(name, spec)
     parts += ["## The file", "", literal_file(path, page_dir), ""]
     return "\n".join(parts)
+
+
+def _benchmark(name: str, page_dir: Path) -> list[str]:
+    """The scenario's figures from the benchmark (IQM over seeds, 95% interval), if any."""
+    if not BENCHMARK.is_file():
+        return []
+    row = json.loads(BENCHMARK.read_text(encoding="utf-8")).get(name)
+    if row is None or row["random"] is None:
+        return []
+
+    def shown(x) -> str:
+        if x is None:
+            return "not yet run"
+        return f"{x['iqm']:.3g} ({x['low']:.3g} to {x['high']:.3g}), {x['seeds']} seeds"
+
+    page = os.path.relpath(DOCS / "benchmark.md", page_dir)
+    rows = [
+        ["random play", shown(row["random"])],
+        ["scripted reference", shown(row["scripted"])],
+        [f"PPO, {row['budget']:,} agent-steps", shown(row["ppo"])],
+    ]
+    if row["normalised"] is not None:
+        rows.append(["PPO, normalised (random 0, scripted 1)", shown(row["normalised"])])
+    out = ["## Benchmark", ""]
+    out += [table(["Method", "Score: IQM over seeds (95% interval)"], rows), ""]
+    if row["verdict"]:
+        out += [f"Verdict: **{row['verdict']}**.", ""]
+    out += [
+        f"Held-out episodes and the verdicts are described on the [benchmark page]({page}).",
+        "",
+    ]
+    return out
 
 
 def _pictures(name: str, page_dir: Path, images: Path) -> list[str]:

@@ -4,8 +4,10 @@ and percentile intervals from a bootstrap that resamples runs within each task; 
 competitive tasks, Elo ratings from a cross-play matrix.
 
 The interquartile mean is SciPy's ``trim_mean`` with a quarter cut from each end, which is
-rliable's own definition; rliable itself is not a dependency (it pulls statsmodels, arch
-and seaborn for these few lines).
+rliable's own definition, computed here as ``trim_mean`` computes it (``int(n / 4)`` values
+cut from each end of the sorted scores) without its per-call overhead, which dominated a
+bootstrap's thousands of calls; rliable itself is not a dependency (it pulls statsmodels,
+arch and seaborn for these few lines).
 """
 
 from __future__ import annotations
@@ -13,7 +15,6 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 import numpy as np
-from scipy.stats import trim_mean
 
 
 def normalise(score, random: float, best: float):
@@ -29,10 +30,11 @@ def normalise(score, random: float, best: float):
 def iqm(scores) -> float:
     """The interquartile mean: the mean of the middle half of the scores (a quarter cut
     from each end, as ``scipy.stats.trim_mean``)."""
-    values = np.asarray(scores, np.float64).ravel()
+    values = np.sort(np.asarray(scores, np.float64).ravel())
     if values.size == 0:
         raise ValueError("no scores")
-    return float(trim_mean(values, 0.25))
+    cut = values.size // 4
+    return float(values[cut : values.size - cut].mean())
 
 
 def stratified_bootstrap(

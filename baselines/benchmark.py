@@ -1,0 +1,360 @@
+"""The benchmark: random play, each task's scripted reference solver and shared-parameter
+PPO on every shipped scenario and task stream, seed by seed, one small JSON file per seed.
+
+    python -m baselines.benchmark                        # all that is not yet done
+    python -m baselines.benchmark --methods random scripted
+    python -m baselines.benchmark --only fruits_poisons coop_carry --methods ppo
+
+``make benchmark`` runs it, then ``python -m baselines.benchmark_table``, which writes
+docs/benchmark.md from the JSON files alone.
+
+A task is a shipped scenario (``flatland_ma.list_scenarios()``) or a shipped stream
+(``scenarios/streams/``). Each method plays it on the same held-out episodes:
+
+- a scenario: ``episodes`` episodes reset with seeds ``eval_seed``, ``eval_seed + 1``, ...
+  (apart from every training world); its score is the mean return per agent that the
+  scenario's reference counts (every agent; with ``carrier_vs_random``, the first team's,
+  the others playing at random);
+- a stream of tasks: each task's world, episodes seeded as ``baselines.lifelong``'s
+  evaluation blocks seed them, every agent played by the method; its score is the mean over
+  the stream's tasks of the mean return per agent (the "average performance" at the end
+  of a life). The never-ending stream is scored on its first ``never_ending_steps`` steps.
+
+Methods: ``random`` (every agent uniform at random, seeded by the seed), ``scripted`` (the
+reference solver ``flatland_ma.scores_header.solver_names`` gives each agent, seeded by the
+seed) and ``ppo``: ``baselines.ppo`` on a scenario, ``baselines.lifelong --method
+finetune`` through a stream, for the task's budget of agent-steps (``baselines/benchmark.yaml``),
+then the final checkpoint is scored (a stream: its learner's last evaluation block).
+
+Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (the score, each episode's,
+the budget, agent-steps, CPU and wall seconds, versions, commit, machine load); a seed
+whose file exists is skipped, so an interrupted run resumes. Checkpoints and logs go to
+``<runs>/<task>/`` (not committed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import platform
+import resource
+import subprocess
+import time
+from importlib import metadata
+from pathlib import Path
+
+import numpy as np
+
+from baselines.benchmark_config import METHODS, BenchmarkConfig, TaskConfig, load_config
+from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.policies.named import make_policy
+from flatland_ma.policies.rollout import play_episode
+from flatland_ma.scores_header import solver_names
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "results" / "benchmark"
+RUNS = ROOT / "runs" / "benchmark"
+STREAM_EVALUATION_STRIDE = 1000
+"""``baselines.lifelong`` seeds task i's evaluation worlds from EVALUATION_SEED + 1000 i."""
+
+
+def list_tasks() -> list[tuple[str, str]]:
+    """Every shipped (name, kind): the scenarios, then the streams."""
+    import flatland_ma
+    from flatland_ma.lifelong import list_streams
+
+    return [(n, "scenario") for n in flatland_ma.list_scenarios()] + [
+        (n, "stream") for n in list_streams()
+    ]
+
+
+# -- playing held-out episodes -----------------------------------------------------------
+
+
+def scored_agents(env: FlatlandParallelEnv) -> list[str]:
+    """The agents whose returns the scenario's reference counts: the first team's against
+    random play (``carrier_vs_random``), otherwise every agent."""
+    reference = env.spec.reference
+    if reference is not None and reference.solver == "carrier_vs_random":
+        first = env.spec.teams[0]
+        return [a for i, a in enumerate(env.possible_agents) if env.spec.team_of(i) is first]
+    return list(env.possible_agents)
+
+
+def policy_names(env: FlatlandParallelEnv, method: str, checkpoint: str = "") -> dict[str, str]:
+    """The policy each agent plays under ``method``; agents the score does not count play
+    at random, as in the reference."""
+    scored = scored_agents(env)
+    if method == "random":
+        return dict.fromkeys(env.possible_agents, "random")
+    if method == "scripted":
+        return solver_names(env)
+    return {a: checkpoint if a in scored else "random" for a in env.possible_agents}
+
+
+UNSEEDED = frozenset({"greedy", "planner", "carrier"})
+"""Shipped solvers that draw no random numbers: every seed of theirs plays alike, so a task
+played by these alone is scored for one scripted seed."""
+
+
+def scripted_seeds(name: str, kind: str, config: BenchmarkConfig) -> int:
+    """Seeds of the scripted method on a task: one if every agent's solver is unseeded."""
+    if kind == "scenario":
+        worlds = [FlatlandParallelEnv(name)]
+    else:
+        worlds = [env for _, env, _ in stream_parts(name, config)]
+    try:
+        seeded = any(set(solver_names(env).values()) - UNSEEDED for env in worlds)
+    finally:
+        for env in worlds:
+            env.close()
+    return config.seeds if seeded else 1
+
+
+def play_episodes(env: FlatlandParallelEnv, names: dict[str, str], seeds, seed: int) -> list[float]:
+    """The score of each episode (reset with each of ``seeds``): the mean return of the
+    scored agents, every agent playing its policy from ``names`` (seeded from ``seed``)."""
+    agents = env.possible_agents
+    policies = {
+        a: make_policy(names[a], env, a, seed=seed * 1000 + agents.index(a)) for a in agents
+    }
+    scored = scored_agents(env)
+    out = []
+    for s in seeds:
+        totals, _ = play_episode(env, policies, int(s))
+        out.append(float(np.mean([totals[a] for a in scored])))
+    return out
+
+
+def scenario_seeds(config: BenchmarkConfig) -> list[int]:
+    return list(range(config.eval_seed, config.eval_seed + config.episodes))
+
+
+def stream_parts(name: str, config: BenchmarkConfig):
+    """Each task of stream ``name``: (label, its world, its held-out seeds)."""
+    from baselines.lifelong import EVALUATION_SEED
+    from flatland_ma.lifelong import load_stream, task_env
+
+    stream = load_stream(name)
+    for i, label in enumerate(stream.task_labels):
+        env = task_env(stream, i)
+        if stream.never_ending:
+            env.step_limit = config.never_ending_steps
+        first = EVALUATION_SEED + STREAM_EVALUATION_STRIDE * i
+        yield label, env, list(range(first, first + config.episodes))
+
+
+def play_task(name: str, kind: str, method: str, seed: int, config, checkpoint: str = ""):
+    """(score, each episode's score, each stream task's score) of ``method`` on a task."""
+    if kind == "scenario":
+        env = FlatlandParallelEnv(name)
+        try:
+            episodes = play_episodes(
+                env, policy_names(env, method, checkpoint), scenario_seeds(config), seed
+            )
+        finally:
+            env.close()
+        return float(np.mean(episodes)), episodes, {}
+    parts: dict[str, float] = {}
+    episodes = []
+    for label, env, seeds in stream_parts(name, config):
+        try:
+            scores = play_episodes(env, policy_names(env, method, checkpoint), seeds, seed)
+        finally:
+            env.close()
+        parts[label] = float(np.mean(scores))
+        episodes += scores
+    return float(np.mean(list(parts.values()))), episodes, parts
+
+
+# -- PPO ---------------------------------------------------------------------------------
+
+
+def train_scenario(name: str, seed: int, task: TaskConfig, runs: Path) -> tuple[str, int]:
+    """``baselines.ppo`` on scenario ``name`` for the task's budget: (checkpoint, agent-steps)."""
+    from baselines import ppo
+    from flatland_ma.policies.checkpoint import SUFFIX
+
+    log = runs / name / "ppo" / f"seed_{seed}.csv"
+    options = {"tensorboard": False, "checkpoint_every": 0, **task.ppo}
+    args = ppo.Args(scenario=name, seed=seed, total_timesteps=task.budget, csv=str(log), **options)
+    summary = ppo.main(args)
+    return str(log.with_suffix(SUFFIX)), int(summary["steps"])
+
+
+def train_stream(name: str, seed: int, task: TaskConfig, runs: Path, config) -> tuple[dict, int]:
+    """``baselines.lifelong --method finetune`` through stream ``name``, its life scaled to
+    the task's budget, with one evaluation block at the start and one at the end: (each
+    task's mean return in the last block, agent-steps)."""
+    from baselines import lifelong
+    from flatland_ma.lifelong import load_stream
+
+    stream = load_stream(name)
+    if stream.never_ending:
+        raise ValueError(f"{name}: baselines.lifelong lives only streams of tasks")
+    length = stream.length
+    assert length is not None
+    out = runs / name
+    options = {"tensorboard": False, **task.ppo}
+    args = lifelong.Args(
+        stream=name,
+        method="finetune",
+        seed=seed,
+        out=str(out),
+        scale=task.budget / length,
+        eval_every=10 * task.budget,
+        eval_episodes=config.episodes,
+        **options,
+    )
+    summary = lifelong.main(args)
+    with open(out / "finetune" / f"seed_{seed}" / "evaluations.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    last = max(int(r["step"]) for r in rows)
+    labels = stream.task_labels
+    parts = {
+        labels[int(r["task"])]: float(r["mean_return"]) for r in rows if int(r["step"]) == last
+    }
+    return parts, int(summary["agent_steps"])
+
+
+# -- records -----------------------------------------------------------------------------
+
+
+def versions() -> dict[str, str]:
+    out = {"python": platform.python_version()}
+    for package in ("flatland_ma", "numpy", "pymunk", "numba", "torch"):
+        try:
+            out[package] = metadata.version(package)
+        except metadata.PackageNotFoundError:
+            out[package] = "absent"
+    return out
+
+
+def commit() -> str:
+    try:
+        head = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
+        )
+    except OSError:
+        return "unknown"
+    return head.stdout.strip() or "unknown"
+
+
+def machine() -> dict:
+    return {
+        "load_1min": round(os.getloadavg()[0], 2),
+        "cpus_usable": len(os.sched_getaffinity(0)),
+        "cpus": os.cpu_count(),
+        "machine": platform.machine(),
+    }
+
+
+def cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run_one(name: str, kind: str, method: str, seed: int, config, runs: Path) -> dict:
+    """Play (and for PPO first train) one seed of one method on one task: its record."""
+    task = config.task(name)
+    load_before, cpu, wall = machine(), cpu_seconds(), time.perf_counter()
+    budget, steps, checkpoint, learnt = 0, 0, "", None
+    if method == "ppo" and kind == "scenario":
+        budget = task.budget
+        checkpoint, steps = train_scenario(name, seed, task, runs)
+    if method == "ppo" and kind == "stream":
+        budget = task.budget
+        learnt, steps = train_stream(name, seed, task, runs, config)
+        score, episodes, parts = float(np.mean(list(learnt.values()))), [], learnt
+    else:
+        score, episodes, parts = play_task(name, kind, method, seed, config, checkpoint)
+    record = {
+        "task": name,
+        "kind": kind,
+        "method": method,
+        "seed": seed,
+        "score": round(score, 6),
+        "episodes": [round(e, 6) for e in episodes],
+        "parts": {k: round(v, 6) for k, v in parts.items()},
+        "eval_episodes": config.episodes,
+        "budget": budget,
+        "agent_steps": steps,
+        "options": dict(task.ppo) if method == "ppo" else {},
+        "cpu_seconds": round(cpu_seconds() - cpu, 2),
+        "wall_seconds": round(time.perf_counter() - wall, 2),
+        "versions": versions(),
+        "commit": commit(),
+        "machine": {"before": load_before, "after": machine()},
+    }
+    return record
+
+
+def result_path(out: Path, name: str, method: str, seed: int) -> Path:
+    return out / name / method / f"seed_{seed}.json"
+
+
+def write_record(path: Path, record: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    part = path.with_suffix(".part")
+    part.write_text(json.dumps(record, indent=1) + "\n", encoding="utf-8")
+    part.replace(path)
+
+
+def ppo_possible(name: str, kind: str) -> bool:
+    """Whether a shipped learner can train on the task: every scenario, and every stream
+    of tasks (``baselines.lifelong`` does not live the never-ending stream)."""
+    if kind == "scenario":
+        return True
+    from flatland_ma.lifelong import load_stream
+
+    return not load_stream(name).never_ending
+
+
+def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS) -> list[Path]:
+    """Every method (in order) on every task, every seed not yet written; the files written."""
+    written = []
+    for method in methods:
+        for name, kind in tasks:
+            if method == "ppo" and not ppo_possible(name, kind):
+                continue
+            seeds = config.seeds
+            if method == "scripted":
+                seeds = scripted_seeds(name, kind, config)
+            for seed in range(seeds):
+                path = result_path(out, name, method, seed)
+                if path.exists():
+                    continue
+                print(f"benchmark: {name} {method} seed {seed}", flush=True)
+                record = run_one(name, kind, method, seed, config, runs)
+                write_record(path, record)
+                written.append(path)
+                print(
+                    f"benchmark: {name} {method} seed {seed}: score {record['score']:.4g} "
+                    f"({record['cpu_seconds']:.0f} CPU s)",
+                    flush=True,
+                )
+    return written
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
+    parser.add_argument("--config", default=str(ROOT / "baselines" / "benchmark.yaml"))
+    parser.add_argument("--only", nargs="+", default=None, help="these tasks only")
+    parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
+    parser.add_argument("--out", default=str(OUT), help="where the JSON results go")
+    parser.add_argument("--runs", default=str(RUNS), help="where checkpoints and logs go")
+    args = parser.parse_args(argv)
+    tasks = list_tasks()
+    if args.only:
+        known = {name for name, _ in tasks}
+        unknown = sorted(set(args.only) - known)
+        if unknown:
+            parser.error(f"no shipped scenario or stream {', '.join(unknown)}")
+        tasks = [t for t in tasks if t[0] in args.only]
+    run(load_config(args.config), tasks, args.methods, Path(args.out), Path(args.runs))
+
+
+if __name__ == "__main__":
+    main()
