@@ -18,6 +18,7 @@ import json
 import numbers
 import os
 import random
+import resource
 import time
 from pathlib import Path
 
@@ -263,10 +264,12 @@ class RunLog:
         env_seconds: float,
         busy_seconds: float | None = None,
         evaluation: dict | None = None,
+        extra: dict | None = None,
     ) -> dict:
         """Finish the run. ``busy_seconds`` is the time ``env_seconds`` is a share of
         (by default the run's wall time; summed over processes for A3C). ``evaluation``
-        (from ``evaluate_policy``) is stored as is; its seconds are not training time."""
+        (from ``evaluate_policy``) is stored as is; its seconds are not training time.
+        ``extra`` (e.g. the CPU time and the machine's load) joins the summary."""
         wall = time.perf_counter() - self.start - (evaluation or {}).get("seconds", 0.0)
         busy = wall if busy_seconds is None else busy_seconds
         summary = {
@@ -282,6 +285,7 @@ class RunLog:
         }
         if evaluation is not None:
             summary["evaluation"] = evaluation
+        summary.update(extra or {})
         self.file.close()
         self.path.with_suffix(".json").write_text(json.dumps(summary, indent=2) + "\n")
         os.replace(self.part, self.path)
@@ -296,3 +300,13 @@ def _cpu_name() -> str:
     except OSError:
         pass
     return "unknown"
+
+
+def cpu_seconds() -> float:
+    """CPU time of this process (every thread: torch's and numba's) and of its finished
+    children (the shards' workers, once closed)."""
+    own, children = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime

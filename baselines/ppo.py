@@ -28,6 +28,7 @@ seed_0.safetensors`` plays a checkpoint.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -40,8 +41,17 @@ import tyro
 from torch import nn
 from torch.utils._pytree import tree_leaves, tree_map
 
-from baselines.common import RunLog, default_csv, input_channels, seed_everything
+from baselines.common import (
+    RunLog,
+    cpu_seconds,
+    default_csv,
+    input_channels,
+    seed_everything,
+)
+from baselines.curriculum import Stage, curriculum_stages
 from baselines.networks import Agent
+from baselines.ppo_presets import with_preset
+from baselines.shaping import learning_reward
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
@@ -109,6 +119,18 @@ class Args:
     """What the value reads: "local", the agent's own observation (through the policy's
     layers); "state", a centralised critic of its own on the world's global state and
     which agent of the world the slot is (MAPPO)."""
+    preset: str = ""
+    """Named settings for a task (``baselines.ppo_presets``), applied to every option left
+    at its default; empty: none."""
+    team_reward: bool = False
+    """Every agent learns from its team's reward, the sum of its world's rewards (the log
+    keeps each agent's own return)."""
+    shaping: float = 0.0
+    """Weight of the potential-based shaping term for delivery tasks
+    (``baselines.shaping.DeliveryPotential``); 0: none. The log keeps the scenario's return."""
+    curriculum: str = ""
+    """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
+    their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""
 
 
 def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> torch.Tensor:
@@ -226,10 +248,14 @@ class Rollout:
         self.next_state: torch.Tensor | None = None
         self.env_seconds = 0.0
 
-    def collect(self, agent: Agent, env, observation, reward_scale: float, after_step):
+    def collect(
+        self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
+    ):
         """Act for ``steps`` steps from ``observation``; after each,
         ``after_step(reward, terminated, done, infos, acted)`` with ``acted`` the number
-        of slots whose action the env used. Returns the last observation."""
+        of slots whose action the env used. The rollout keeps
+        ``learn_from(reward, terminated) * reward_scale`` (the reward itself when
+        ``learn_from`` is None). Returns the last observation."""
         for t in range(self.steps):
             for stored, x in zip(tree_leaves(self.observations), tree_leaves(observation)):
                 stored[t] = torch.from_numpy(x)
@@ -247,7 +273,8 @@ class Rollout:
             observation, reward, terminated, truncated, infos = env.step(sent.numpy())
             self.env_seconds += time.perf_counter() - tick
             done = terminated | truncated
-            self.rewards[t] = torch.from_numpy(reward * reward_scale)
+            learnt = reward if learn_from is None else learn_from(reward, terminated)
+            self.rewards[t] = torch.from_numpy(learnt * reward_scale)
             self.ends[t] = torch.from_numpy(done)
             self.stops[t] = torch.from_numpy(terminated)
             after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
@@ -296,7 +323,14 @@ def slot_states(env) -> np.ndarray:
     return np.concatenate([states, who], axis=1, dtype=np.float32)
 
 
-def batched_env(args: Args) -> BatchedParallelEnv | ShardedParallelEnv:
+def batched_env(args: Args, stage: Stage | None = None):
+    """The run's worlds: of ``args.scenario``, or of a curriculum's ``stage``."""
+    if stage is not None:
+        if args.no_channel or args.shards > 1:
+            raise ValueError(
+                "a curriculum runs in one process, and says channel: null in its overrides"
+            )
+        return BatchedParallelEnv(stage.spec, num_worlds=args.num_envs, copy=False, pad=True)
     # Agents whose observations differ (roles with other sensors) share the network
     # through one padded space that names each slot's role (flatland_ma.envs.padding).
     overrides: dict = {"pad": True}
@@ -315,14 +349,20 @@ def run_name(args: Args) -> str:
 
 
 def main(args: Args) -> dict:
+    args = with_preset(args)
+    cpu_start, load_start = cpu_seconds(), os.getloadavg()
     seed_everything(args.seed)
     torch.set_num_threads(args.torch_threads)
-    env = batched_env(args)
+    stages = curriculum_stages(args.curriculum) if args.curriculum else []
+    total_timesteps = sum(s.steps for s in stages) if stages else args.total_timesteps
+    ends = np.cumsum([s.steps for s in stages])
+    stage = 0
+    env = batched_env(args, stages[0] if stages else None)
     space = env.single_observation_space
     slots = env.num_slots
     names = env.possible_agents
     m = env.agents_per_world
-    iterations = max(1, args.total_timesteps // (slots * args.num_steps))
+    iterations = max(1, total_timesteps // (slots * args.num_steps))
     csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
     run_dir = csv_path.with_suffix("")
     start = time.perf_counter()
@@ -363,6 +403,7 @@ def main(args: Args) -> dict:
         )
 
     rollout = Rollout(agent, env, observation, args.num_steps)
+    learn_from = learning_reward(args, env)
     episode_returns = np.zeros(slots)
     finished: dict[int, tuple[float, dict]] = {}
     """Each slot's return and counters at its episode's end, until its world's ends."""
@@ -385,11 +426,26 @@ def main(args: Args) -> dict:
                 print(f"step={global_step} episode={episodes} world={w}", flush=True)
                 episodes += 1
 
+    began = [0]
+    """The agent-step at which each stage of the curriculum began."""
     for iteration in range(1, iterations + 1):
+        if stage + 1 < len(stages) and global_step >= ends[stage]:
+            stage += 1
+            env.close()
+            env = batched_env(args, stages[stage])
+            observation, _ = env.reset(seed=args.seed * args.num_envs)
+            rollout.next_acting[:] = True
+            episode_returns[:] = 0.0
+            finished.clear()
+            learn_from = learning_reward(args, env)
+            began.append(global_step)
+            print(f"step={global_step} curriculum stage {stages[stage].name}", flush=True)
         lr = args.learning_rate * (1 - (iteration - 1) / iterations)
         if args.anneal_lr:
             optimizer.param_groups[0]["lr"] = lr
-        observation = rollout.collect(agent, env, observation, args.reward_scale, after_step)
+        observation = rollout.collect(
+            agent, env, observation, args.reward_scale, after_step, learn_from
+        )
         stats = rollout.learn(agent, optimizer, args, observation)
         sps = global_step / (time.perf_counter() - start)
         for key, value in {
@@ -402,13 +458,22 @@ def main(args: Args) -> dict:
             save(run_dir / f"update_{iteration:05d}{SUFFIX}", iteration)
     save(csv_path.with_suffix(SUFFIX), iterations)
     scalars.close()
-    summary = log.close(global_step, env_seconds + rollout.env_seconds)
+    env.close()
+    machine = {
+        "cpu_seconds": round(cpu_seconds() - cpu_start, 2),
+        "load_average_start": [round(x, 2) for x in load_start],
+        "load_average_end": [round(x, 2) for x in os.getloadavg()],
+    }
+    if stages:
+        machine["curriculum"] = [{"name": s.name, "began": step} for s, step in zip(stages, began)]
+    # The share of the whole run, the first reset (numba's compilation, if any) included.
+    busy = time.perf_counter() - start
+    summary = log.close(global_step, env_seconds + rollout.env_seconds, busy, extra=machine)
     print(
-        f"done: {global_step} agent-steps in {time.perf_counter() - start:.0f} s, "
-        f"env {summary['env_share']:.1%} of it",
+        f"done: {global_step} agent-steps in {time.perf_counter() - start:.0f} s "
+        f"({machine['cpu_seconds']:.0f} s of CPU), env {summary['env_share']:.1%} of it",
         flush=True,
     )
-    env.close()
     return summary
 
 
