@@ -233,13 +233,19 @@ def versions() -> dict[str, str]:
 
 
 def commit() -> str:
+    """The checkout's commit, with ``-modified`` if the library or the baselines differ from it."""
     try:
         head = subprocess.run(
             ["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True
         )
+        changed = subprocess.run(
+            ["git", "diff", "--quiet", "HEAD", "--", "flatland_ma", "baselines", "scenarios"],
+            cwd=ROOT,
+        )
     except OSError:
         return "unknown"
-    return head.stdout.strip() or "unknown"
+    name = head.stdout.strip() or "unknown"
+    return name + ("-modified" if changed.returncode == 1 else "")
 
 
 def machine() -> dict:
@@ -312,9 +318,11 @@ def ppo_possible(name: str, kind: str) -> bool:
     return not load_stream(name).never_ending
 
 
-def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS) -> list[Path]:
-    """Every method (in order) on every task, every seed not yet written; the files written."""
-    written = []
+def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS, hours: float = 0.0):
+    """Every method (in order) on every task, every seed not yet written; the files written.
+    With ``hours``, no seed is started after that many hours (a bounded session)."""
+    written: list[Path] = []
+    stop = time.monotonic() + hours * 3600.0 if hours else float("inf")
     for method in methods:
         for name, kind in tasks:
             if method == "ppo" and not ppo_possible(name, kind):
@@ -326,6 +334,9 @@ def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS) -> list[Path
                 path = result_path(out, name, method, seed)
                 if path.exists():
                     continue
+                if time.monotonic() > stop:
+                    print("benchmark: out of time; run it again to go on", flush=True)
+                    return written
                 print(f"benchmark: {name} {method} seed {seed}", flush=True)
                 record = run_one(name, kind, method, seed, config, runs)
                 write_record(path, record)
@@ -345,6 +356,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--out", default=str(OUT), help="where the JSON results go")
     parser.add_argument("--runs", default=str(RUNS), help="where checkpoints and logs go")
+    parser.add_argument(
+        "--hours", type=float, default=0.0, help="start no seed after this many hours (0: none)"
+    )
     args = parser.parse_args(argv)
     tasks = list_tasks()
     if args.only:
@@ -353,7 +367,11 @@ def main(argv: list[str] | None = None) -> None:
         if unknown:
             parser.error(f"no shipped scenario or stream {', '.join(unknown)}")
         tasks = [t for t in tasks if t[0] in args.only]
-    run(load_config(args.config), tasks, args.methods, Path(args.out), Path(args.runs))
+    config = load_config(args.config)
+    strangers = sorted(set(config.tasks) - {name for name, _ in list_tasks()})
+    if strangers:
+        parser.error(f"{args.config}: tasks: no shipped scenario or stream {', '.join(strangers)}")
+    run(config, tasks, args.methods, Path(args.out), Path(args.runs), args.hours)
 
 
 if __name__ == "__main__":

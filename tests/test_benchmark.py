@@ -179,3 +179,15 @@ def test_the_fast_iqm_is_scipys_trim_mean():
     for n in range(1, 40):
         scores = rng.normal(size=n) * 100
         assert iqm(scores) == pytest.approx(trim_mean(scores, 0.25), rel=1e-12, abs=1e-12)
+
+
+def test_a_stream_is_scored_on_each_of_its_tasks(tmp_path):
+    config = tiny_config(tmp_path / "bench.yaml")
+    out = tmp_path / "results"
+    tasks = [("cross_objective", "stream")]
+    (path,) = run(config, tasks, ["random"], out, tmp_path / "runs")[:1]
+    record = json.loads(path.read_text())
+    labels = ["paper", "swapped", "berries", "scarce", "neutral"]
+    assert list(record["parts"]) == labels and len(record["episodes"]) == len(labels)
+    assert record["score"] == pytest.approx(np.mean(list(record["parts"].values())))
+    assert record["parts"] == dict(zip(labels, record["episodes"]))  # one episode each
