@@ -168,6 +168,15 @@ class Actuator:
                 body.command_parts([float(a) for a in action[3 : 3 + self.n_controls]])
         body.drive()
 
+    def base_commands(self, actions: Sequence) -> np.ndarray:
+        """The base's command (forward, lateral, turn) of each checked action, one row
+        each, as ``apply`` gives ``AgentBody.command`` (for ``motors.Motors``)."""
+        if self.mode == "discrete":
+            codes = [a[0] for a in actions] if self.words else actions
+            table = np.array([m.base for m in self.macros], np.float64)
+            return table[np.asarray(codes, np.intp)]
+        return np.array([a[:3] for a in actions], np.float64).reshape(-1, 3)
+
     def _check_discrete(self, agent: str, action: object):
         if self.words:
             return self._check_words(agent, action)

@@ -51,6 +51,17 @@ def counter_array(value, n: int) -> np.ndarray:
     return np.empty(n, object)
 
 
+def put_column(counter: np.ndarray, rows, base: int, live: list[int], values: list) -> None:
+    """Write one info entry of a world's ``live`` agents (slots ``rows``: a slice, or
+    ``base + i`` for each) into its array; objects (tuples of keys) one by one, as numpy
+    would read a list of tuples as rows."""
+    if counter.dtype != object:
+        counter[rows] = values
+        return
+    for i, value in zip(live, values):
+        counter[base + i] = value
+
+
 def world_seeds(seed: int | list[int | None] | None, n: int) -> list[int | None]:
     """Each world's seed, all checked before any world resets."""
     if seed is None:

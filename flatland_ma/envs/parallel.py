@@ -308,10 +308,12 @@ class FlatlandParallelEnv(ParallelEnv):
         return ", ".join(f"{a}: {self.action_spaces[a]}" for a in agents)
 
     def _advance(
-        self, checked: list, observe: bool = True
+        self, checked: list, observe: bool = True, acted: bool = False, poses: bool = True
     ) -> tuple[list[int], list[float], list[bool], bool]:
-        """Apply checked actions of the live agents, simulate one step, observe (unless
-        the caller casts the rays itself: then the sensors are only prepared).
+        """Apply checked actions of the live agents (unless the caller ``acted``: drove
+        the bodies itself, as the batched env does for every world at once), simulate one
+        step, observe (unless the caller casts the rays itself: then the sensors are only
+        prepared, and with ``poses=False`` the caller reads the moving bodies' poses).
 
         Returns the agents that were live for this step, everyone's rewards and
         terminations, and whether the step limit truncated the episode.
@@ -321,7 +323,8 @@ class FlatlandParallelEnv(ParallelEnv):
         bodies, actuators = episode.bodies, self._actuators
         channel = episode.world.channel
         for i, action in zip(live, checked):
-            actuators[i].apply(bodies[i], action)
+            if not acted:
+                actuators[i].apply(bodies[i], action)
             if channel is not None:
                 channel.say(i, actuators[i].said(action))
         self._log.append(checked)
@@ -331,7 +334,7 @@ class FlatlandParallelEnv(ParallelEnv):
         if observe:
             episode.sensors.observe()
         else:
-            episode.sensors.prepare()
+            episode.sensors.prepare(poses)
         self.num_steps += 1
         truncated = self.step_limit is not None and self.num_steps >= self.step_limit
         if truncated or any(terminated[i] for i in live):

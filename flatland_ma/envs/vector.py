@@ -33,8 +33,12 @@ calling in meanwhile gets a ``RuntimeError``; ``flatland_ma.envs.guards``).
 The arrays returned are copies, unless ``copy=False``: then they are the env's own buffers,
 overwritten by the next ``step`` or ``reset``.
 
-A step acts and simulates world by world, then casts the rays of every world in one call
-of the compiled kernel, spread over numba's threads (``parallel=False``: on one).
+A step is array work over all worlds but for ``space.step`` (``batched_steps``): the batch
+of actions is checked at once, every world's plain bodies are driven in one compiled call
+(``agents.motors``), each world simulates and applies its rules, every world's moving
+bodies' poses are read back in one call, the rays of every world are cast in one call of
+the compiled kernel, spread over numba's threads (``parallel=False``: on one), and each
+world's observations, rewards and counters are written as slices of the stacked arrays.
 """
 
 from __future__ import annotations
@@ -46,7 +50,17 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from flatland_ma.envs.buffers import clear, copied, counter_array, put, stacked, world_seeds
+from flatland_ma.agents.motors import FIELDS_FOUND, Motors, Poses
+from flatland_ma.envs.batched_steps import checked_at_once, checked_by_slot, drive, whole_image
+from flatland_ma.envs.buffers import (
+    clear,
+    copied,
+    counter_array,
+    put,
+    put_column,
+    stacked,
+    world_seeds,
+)
 from flatland_ma.envs.flatten import FlatLayout, FlatPart
 from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
 from flatland_ma.envs.padding import Padding
@@ -59,7 +73,7 @@ from flatland_ma.envs.resets import (
     slot_of,
 )
 from flatland_ma.scenario.budget import check_batch
-from flatland_ma.sensors.suite import WorldsKernel
+from flatland_ma.sensors.suite import Sensors, WorldsKernel
 
 AUTORESET_MODE = AutoresetMode.NEXT_STEP
 """The batched envs' default autoreset mode (``flatland_ma.envs.resets``)."""
@@ -166,6 +180,18 @@ class BatchedParallelEnv:
         self._counters: dict[str, np.ndarray] = {}
         self._ended = [False] * num_worlds
         """Worlds whose episode ended on the last step: the next step resets them."""
+        self._actuator = first._actuators[0]
+        self._motors = (
+            Motors(self.num_slots)
+            if all(a.n_controls == 0 for a in first._actuators) and FIELDS_FOUND
+            else None
+        )
+        """Every plain agent's motor, driven at once (None: bodies with parts)."""
+        self._poses = Poses(num_worlds) if Poses.fits() else None
+        """Every world's moving bodies' poses, read at once for the rays."""
+        self._whole_image = self.padding is None and render_mode is None
+        """Whether a world's observations are its cameras' rays as they are, agent after
+        agent (see ``whole_image``; with a render mode, sensors keep their readings)."""
         self._rays = WorldsKernel(num_worlds, parallel)
         """Every world's ray kernel arguments: one call casts the rays of all, over every
         core numba may use unless ``parallel`` is False."""
@@ -205,10 +231,9 @@ class BatchedParallelEnv:
         self._rewards[:] = 0.0
         self._terminations[:] = False
         self._truncations[:] = False
-        advanced, entered = [], []
+        advanced, entered, stepped = [], [], []
         finals: dict[int, tuple] = {}
         try:
-            # Act and simulate world by world; cast every advanced world's rays in one call.
             for w, env in enumerate(self.worlds):
                 if self._ended[w]:  # NEXT_STEP: reset instead (DISABLED: refused in _check)
                     self._restart(w, env, None)
@@ -220,23 +245,36 @@ class BatchedParallelEnv:
                         clear(self._observations, base + j)
                 env.enter()
                 entered.append(env)
-                advanced.append((w, env, *env._advance(checked[w], observe=False)))
+                stepped.append((w, env))
+            # Drive every world's bodies at once, simulate world by world, then cast every
+            # stepped world's rays in one call.
+            motors = self._motors
+            acted = motors is not None
+            if motors is not None:
+                drive(motors, self._actuator, stepped, checked)
+            poses = self._poses is None
+            for w, env in stepped:
+                advanced.append((w, env, *env._advance(checked[w], False, acted, poses)))
             if advanced:
-                self._rays.observe(np.array([a[0] for a in advanced], np.int64))
+                which = np.array([a[0] for a in advanced], np.int64)
+                if self._poses is not None:
+                    self._poses.read(which)
+                self._rays.observe(which)
             same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
             for w, env, live, rewards, terminated, truncated in advanced:
-                sensors, task = env.running.sensors, env.running.task
-                base = w * m
-                for i in live:
-                    slot = base + i
-                    self._put(slot, i, sensors.observation(i))
-                    self._rewards[slot] = rewards[i]
-                    self._terminations[slot] = terminated[i]
-                    self._truncations[slot] = truncated
-                    info = task.info(i)
-                    self._count(slot, info)
-                    if same_step and (terminated[i] or truncated):
-                        finals[slot] = (self._seen(slot), info)
+                task, base = env.running.task, w * m
+                # The world's live slots: a slice while every agent plays.
+                rows = slice(base, base + m) if len(live) == m else [base + i for i in live]
+                self._observe(env.running.sensors, base, live, rows)
+                self._rewards[rows] = [rewards[i] for i in live]
+                self._terminations[rows] = [terminated[i] for i in live]
+                self._truncations[rows] = truncated
+                for key, values in task.columns(live).items():
+                    put_column(self._counter(key, values[0]), rows, base, live, values)
+                if same_step:
+                    for i in live:
+                        if terminated[i] or truncated:
+                            finals[base + i] = (self._seen(base + i), task.info(i))
                 self._ended[w] = not env.agents
         finally:
             for env in entered:
@@ -313,6 +351,17 @@ class BatchedParallelEnv:
         observations, infos = env.reset(seed=seed)
         self._rays.set(w, env.running.sensors)
         base = w * self.agents_per_world
+        if w == 0:
+            self._whole_image = self._whole_image and whole_image(env.running.sensors)
+        if self._poses is not None:
+            geometry = env.running.sensors.geometry
+            self._poses.place(w, geometry.pose, geometry.bodies)
+        if self._motors is not None:
+            for j, body in enumerate(env.running.bodies):
+                if not Motors.fits(body):
+                    self._motors = None  # a body with parts: each agent's own apply
+                    break
+                self._motors.place(base + j, body)
         for j, agent in enumerate(env.possible_agents):
             if self.padding is not None:  # inert slots were zeroed: name the role again
                 self.padding.mark(self._observations, j, base + j)
@@ -320,6 +369,17 @@ class BatchedParallelEnv:
             self._active[base + j] = True
             self._count(base + j, infos[agent])
         self._ended[w] = False
+
+    def _observe(self, sensors: Sensors, base: int, live: list[int], rows) -> None:
+        """Put the observations of a world's ``live`` agents (in slots ``rows``, its
+        agents from slot ``base``) into the stacked buffer: while it is the concatenation
+        of the cameras' rays (``_whole_image``), in one copy, else agent by agent."""
+        if self._whole_image:
+            image = sensors.image.reshape(self.agents_per_world, -1, sensors.image.shape[1])
+            self._observations[rows] = image if len(live) == len(image) else image[live]
+            return
+        for i in live:
+            self._put(base + i, i, sensors.observation(i))
 
     def _put(self, slot: int, agent: int, observation) -> None:
         if self.padding is None:
@@ -339,24 +399,19 @@ class BatchedParallelEnv:
             )
         check_batch_of_actions(actions, self.num_slots, self.single_action_space, self.layout)
         m = self.agents_per_world
-        checked: list[list] = []
-        for w, env in enumerate(self.worlds):
-            own = []
-            if not self._ended[w]:
-                for i in env._live:
-                    agent = env.possible_agents[i]
-                    try:
-                        own.append(env.check_action(agent, actions[w * m + i]))
-                    except ValueError as err:
-                        raise ValueError(f"world {w}, slot {w * m + i}: {err}") from None
-            checked.append(own)
-        return checked
+        fast = checked_at_once(actions, self._actuator, self.worlds, self._ended, m)
+        return checked_by_slot(actions, self.worlds, self._ended, m) if fast is None else fast
 
     def _count(self, slot: int, info: dict) -> None:
         for key, value in info.items():
-            if key not in self._counters:
-                self._counters[key] = counter_array(value, self.num_slots)
-            self._counters[key][slot] = value
+            self._counter(key, value)[slot] = value
+
+    def _counter(self, key: str, value) -> np.ndarray:
+        """The array of the info entry ``key`` (made to hold values like ``value``)."""
+        counter = self._counters.get(key)
+        if counter is None:
+            counter = self._counters[key] = counter_array(value, self.num_slots)
+        return counter
 
     def _infos(self) -> dict:
         infos = {key: self._out(values) for key, values in self._counters.items()}

@@ -114,14 +114,16 @@ class Sensors:
         self.prepare()
         self._kernel(*self._args)
 
-    def prepare(self) -> None:
+    def prepare(self, poses: bool = True) -> None:
         """Everything ``observe`` does before casting the rays (``observe_worlds`` casts
-        several worlds' rays in one call)."""
+        several worlds' rays in one call); ``poses=False`` leaves reading the moving
+        bodies' poses to the caller (the batched env reads every world's at once)."""
         geo = self.geometry
         if self.world.changed:
             for entity in self.world.take_changed():
                 geo.update_entity(entity)
-        geo.refresh_poses()
+        if poses:
+            geo.refresh_poses()
 
     @property
     def kernel_args(self) -> tuple:

@@ -79,6 +79,13 @@ class ItemRule(Rule):
                 return False
         return True
 
+    def columns(self, agents: list[int], out: dict[str, list]) -> None:
+        counts = self.eaten[agents]
+        for group in self.groups:
+            out[group.name] = counts[:, group.index].tolist()
+        if self.has_keys:
+            out["keys"] = [tuple(sorted(self.records[a].keys)) for a in agents]
+
     def info(self, agent: int, out: dict) -> None:
         for group in self.groups:
             out[group.name] = int(self.eaten[agent, group.index])

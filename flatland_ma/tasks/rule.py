@@ -120,3 +120,14 @@ class Rule(Kinded, ABC):
     def info(self, agent: int, out: dict) -> None:
         """Add the agent's counters to its ``infos`` entry (none by default)."""
         return None
+
+    def columns(self, agents: list[int], out: dict[str, list]) -> None:
+        """Add the counters of ``agents`` to ``out``, one list per key with an entry per
+        agent, as ``info`` gives them (the batched env reads every agent's at once). By
+        default from ``info``, agent by agent; a rule whose counters are arrays may give
+        them as slices."""
+        rows: list[dict] = [{} for _ in agents]
+        for agent, row in zip(agents, rows):
+            self.info(agent, row)
+        for key in rows[0] if rows else ():
+            out[key] = [row[key] for row in rows]

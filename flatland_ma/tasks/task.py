@@ -43,6 +43,8 @@ class Task:
         ]
         for rule in self.rules:
             rule.reset(ctx)
+        self._counting = [r for r in self.rules if type(r).info is not Rule.info]
+        """The rules that add counters to ``info``."""
         self.steps = 0
 
     def evaluate(self, rng: np.random.Generator) -> tuple[list[float], list[bool]]:
@@ -79,6 +81,15 @@ class Task:
         for rule in self.rules:
             rule.info(agent_index, info)
         return info
+
+    def columns(self, agents: list[int]) -> dict[str, list]:
+        """``info`` of each of ``agents`` as one list per key (an entry per agent, in
+        the order of ``agents``), keys in ``info``'s order."""
+        records = self.records
+        out = {"score": [float(records[a].score) for a in agents]}
+        for rule in self._counting:
+            rule.columns(agents, out)
+        return out
 
 
 def new_records(n_agents: int) -> list[AgentRecord]:
