@@ -23,6 +23,7 @@ import numpy as np
 
 from flatland_ma.bench import BenchResult, bare_space_rate
 from flatland_ma.bench_load import LoadMeter
+from flatland_ma.bench_targets import RayRate, bench_busy_core, bench_make_vec, bench_rays
 
 WORLDS = (1, 16, 256, 1024)
 SECONDS = 3.0
@@ -136,19 +137,32 @@ def check_worlds(worlds: tuple[int, ...]) -> None:
                     raise ValueError(f"{scenario}: {err}") from None
 
 
+TARGET_WORLDS = 256
+"""Worlds of the make_vec row and of the ray kernel's row (the issue's targets)."""
+BUSY_WORLDS = 16
+"""Worlds of the rows with and without a busy process holding a core."""
+
+
 def run(
     worlds: tuple[int, ...] = WORLDS, seconds: float = SECONDS, ppo: bool = True
-) -> tuple[list[BenchResult], list[TrainingRate]]:
+) -> tuple[list[BenchResult], list[TrainingRate], RayRate]:
+    """Every row of worlds (one process, and every core), then the targets' rows
+    (``bench_targets``), the ray kernel's rate and PPO end to end (unless not ``ppo``)."""
     check_worlds(worlds)
     results = []
     for scenario in SCENARIOS:
         for n in worlds:
             for processes in _processes(n):
                 results.append(bench_worlds(scenario, n, processes, seconds))
-    return results, [bench_ppo()] if ppo else []
+    results += bench_make_vec(TARGET_WORLDS, seconds)
+    results += bench_busy_core(BUSY_WORLDS, seconds)
+    rays = bench_rays(TARGET_WORLDS, seconds)
+    return results, [bench_ppo()] if ppo else [], rays
 
 
-def format_table(results: list[BenchResult], training: list[TrainingRate]) -> str:
+def format_table(
+    results: list[BenchResult], training: list[TrainingRate], rays: RayRate | None = None
+) -> str:
     header = (
         f"{'batched env':48} {'agents':>6} {'world steps/s':>14} {'agent steps/s':>14} "
         f"{'bare physics/s':>15} {'cost / bare':>12}  {'threads':18} machine"
@@ -157,7 +171,7 @@ def format_table(results: list[BenchResult], training: list[TrainingRate]) -> st
     for r in results:
         lines.append(
             f"{r.label:48} {r.agents:>6} {r.env_steps_per_s:>14,.0f} {r.agent_steps_per_s:>14,.0f} "
-            f"{r.bare_steps_per_s:>15,.0f} {1 / r.physics_share:>11.1f}x  {r.threads:18} "
+            f"{r.bare_steps_per_s:>15,.0f} {_cost(r):>12}  {r.threads:18} "
             f"{r.load.note() if r.load else ''}"
         )
     lines.append(
@@ -168,13 +182,25 @@ def format_table(results: list[BenchResult], training: list[TrainingRate]) -> st
         "other processes kept busy during the row; BUSY rows were taken while other work "
         "held the cores, so they understate the code."
     )
+    if rays is not None:
+        lines.append(
+            f"{rays.label}: {rays.rays_per_s_per_core / 1e6:,.1f} million rays/s per core "
+            f"(CPU time; {rays.wall_rays_per_s / 1e6:,.1f} million by the wall clock)"
+        )
     for t in training:
         rate = f"{t.agent_steps_per_s:,.0f} agent-steps/s" if t.agent_steps_per_s else t.note
         lines.append(f"{t.label}: {rate}")
     return "\n".join(lines)
 
 
-def as_json(results: list[BenchResult], training: list[TrainingRate]) -> dict:
+def _cost(r: BenchResult) -> str:
+    """Time per world-step over bare physics' (blank for rows without bare physics)."""
+    return f"{r.bare_steps_per_s / r.env_steps_per_s:.1f}x" if r.bare_steps_per_s else ""
+
+
+def as_json(
+    results: list[BenchResult], training: list[TrainingRate], rays: RayRate | None = None
+) -> dict:
     return {
         "batched": [
             {
@@ -182,7 +208,7 @@ def as_json(results: list[BenchResult], training: list[TrainingRate]) -> dict:
                 "agents": r.agents,
                 "world_steps_per_s": r.env_steps_per_s,
                 "agent_steps_per_s": r.agent_steps_per_s,
-                "bare_space_step_per_s": r.bare_steps_per_s,
+                "bare_space_step_per_s": r.bare_steps_per_s or None,
                 **r.machine(),
             }
             for r in results
@@ -191,6 +217,13 @@ def as_json(results: list[BenchResult], training: list[TrainingRate]) -> dict:
             {"run": t.label, "agent_steps_per_s": t.agent_steps_per_s, "note": t.note}
             for t in training
         ],
+        "rays": None
+        if rays is None
+        else {
+            "run": rays.label,
+            "rays_per_s_per_core": rays.rays_per_s_per_core,
+            "wall_rays_per_s": rays.wall_rays_per_s,
+        },
         "cores": cores(),
         "numpy": np.__version__,
     }

@@ -141,16 +141,30 @@ def test_bench_at_scale_measures_one_process_and_every_core(capsys, monkeypatch)
     from flatland_ma import bench_scale
 
     monkeypatch.setattr(bench_scale, "cores", lambda: 2)
+    monkeypatch.setattr(bench_scale, "TARGET_WORLDS", 2)
+    monkeypatch.setattr(bench_scale, "BUSY_WORLDS", 2)
     assert (
         main(["bench", "--scale", "--worlds", "1,2", "--seconds", "0.1", "--no-ppo", "--json"]) == 0
     )
     figures = json.loads(capsys.readouterr().out)
-    rows = {r["environment"]: r for r in figures["batched"]}
+    every = {r["environment"]: r for r in figures["batched"]}
+    rows = {name: row for name, row in every.items() if name.endswith(("process", "processes"))}
     assert set(rows) == {
         f"batched {s} x {n}, {p}"
         for s in ("fruits_poisons", "fruits_poisons_multi")
         for n, p in ((1, "1 process"), (2, "1 process"), (2, "2 processes"))
     }
+    targets = {name: row for name, row in every.items() if name not in rows}
+    assert set(targets) == {
+        "make_vec flatland_ma/FruitsPoisons-v0 x 2",
+        "make flatland_ma/FruitsPoisons-v0",
+        "batched fruits_poisons_multi x 2, one thread",
+        "batched fruits_poisons_multi x 2, threads, a busy process holding one core",
+    }
+    for name, row in targets.items():
+        assert row["world_steps_per_s"] > 0 and row["threads"] and "busy" in row
+        assert (row["bare_space_step_per_s"] is None) == name.startswith("batched")
+    assert figures["rays"]["rays_per_s_per_core"] > 0
     for name, row in rows.items():
         agents = 4 if "multi" in name else 1
         assert row["agents"] == agents
