@@ -239,10 +239,11 @@ class BatchedParallelEnv:
                     self._restart(w, env, None)
                     continue
                 base = w * m
-                for j in range(m):  # agents gone before this step are inert from now
-                    if self._active[base + j] and j not in env._live:
-                        self._active[base + j] = False
-                        clear(self._observations, base + j)
+                if len(env._live) < m:  # agents gone before this step are inert from now
+                    for j in range(m):
+                        if self._active[base + j] and j not in env._live:
+                            self._active[base + j] = False
+                            clear(self._observations, base + j)
                 env.enter()
                 entered.append(env)
                 stepped.append((w, env))
@@ -264,10 +265,11 @@ class BatchedParallelEnv:
             for w, env, live, rewards, terminated, truncated in advanced:
                 task, base = env.running.task, w * m
                 # The world's live slots: a slice while every agent plays.
-                rows = slice(base, base + m) if len(live) == m else [base + i for i in live]
+                whole = len(live) == m
+                rows = slice(base, base + m) if whole else [base + i for i in live]
                 self._observe(env.running.sensors, base, live, rows)
-                self._rewards[rows] = [rewards[i] for i in live]
-                self._terminations[rows] = [terminated[i] for i in live]
+                self._rewards[rows] = rewards if whole else [rewards[i] for i in live]
+                self._terminations[rows] = terminated if whole else [terminated[i] for i in live]
                 self._truncations[rows] = truncated
                 for key, values in task.columns(live).items():
                     put_column(self._counter(key, values[0]), rows, base, live, values)

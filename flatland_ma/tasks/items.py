@@ -80,7 +80,8 @@ class ItemRule(Rule):
         return True
 
     def columns(self, agents: list[int], out: dict[str, list]) -> None:
-        counts = self.eaten[agents]
+        everyone = agents == list(range(len(self.eaten)))
+        counts = self.eaten if everyone else self.eaten[agents]
         for group in self.groups:
             out[group.name] = counts[:, group.index].tolist()
         if self.has_keys:
