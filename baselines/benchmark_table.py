@@ -113,13 +113,19 @@ def build(root: Path, config: BenchmarkConfig, tasks=None) -> dict:
         method: round(sum(r["cpu_seconds"] for r in records if r["method"] == method), 1)
         for method in METHODS
     }
+    ppo = [r for r in records if r["method"] == "ppo"]
+    planned = sum(r["budget"] * config.seeds for r in rows if r["learner"])
+    rate = sum(r["agent_steps"] for r in ppo) / max(1e-9, sum(r["cpu_seconds"] for r in ppo))
     return {
         "rows": rows,
+        "planned_steps": planned,
+        "ppo_rate": round(rate, 1) if ppo else None,
         "aggregate": aggregate,
         "cpu_seconds": totals,
         "commits": sorted({r["commit"] for r in records}),
         "versions": sorted({json.dumps(r["versions"], sort_keys=True) for r in records}),
         "seeds": config.seeds,
+        "options": dict(config.default.ppo),
         "episodes": config.episodes,
     }
 
@@ -133,9 +139,10 @@ def figure_text(x: dict | None) -> str:
     return f"{x['iqm']:.3g} ({x['low']:.3g} to {x['high']:.3g})"
 
 
-def ppo_cell(row: dict) -> str:
+def ppo_cell(row: dict, seeds: int) -> str:
     if row["ppo"] is not None:
-        return figure_text(row["ppo"])
+        done = row["ppo"]["seeds"]
+        return figure_text(row["ppo"]) + (f", {done} of {seeds} seeds" if done < seeds else "")
     return "not yet run" if row["learner"] else "no learner for it"
 
 
@@ -160,7 +167,7 @@ def solver_text(name: str, kind: str) -> str:
     return reference.solver
 
 
-def table(rows: list[dict]) -> list[str]:
+def table(rows: list[dict], seeds: int) -> list[str]:
     headers = ["Task", "Random", "Scripted", "Reference solver", "PPO", "PPO, normalised"]
     headers += ["Budget", "Verdict"]
     out = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
@@ -171,7 +178,7 @@ def table(rows: list[dict]) -> list[str]:
             figure_text(r["random"]) or "not yet run",
             figure_text(r["scripted"]) or "not yet run",
             solver_text(r["task"], r["kind"]),
-            ppo_cell(r),
+            ppo_cell(r, seeds),
             normalised_cell(r),
             budget,
             r["verdict"],
@@ -180,12 +187,30 @@ def table(rows: list[dict]) -> list[str]:
     return out
 
 
+def planned_text(summary: dict) -> str:
+    text = (
+        f"The whole PPO benchmark is {summary['planned_steps'] / 1e6:.3g}M agent-steps of "
+        "training (every budget times the seeds)"
+    )
+    rate = summary["ppo_rate"]
+    if not rate:
+        return text + "."
+    hours = summary["planned_steps"] / rate / 3600
+    return (
+        text + f"; at the {rate:.0f} agent-steps per CPU-second the committed PPO seeds "
+        f"averaged (training and scoring), about {hours:.1f} CPU-hours."
+    )
+
+
 def render(summary: dict, figure: str = "images/benchmark.png") -> str:
     rows = summary["rows"]
     cpu = summary["cpu_seconds"]
     agg = summary["aggregate"]
     counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
     missing = [r["task"] for r in rows if r["learner"] and r["ppo"] is None]
+    partial = [
+        r["task"] for r in rows if r["ppo"] is not None and r["ppo"]["seeds"] < summary["seeds"]
+    ]
     lines = [
         "# Benchmark",
         "",
@@ -208,7 +233,9 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
         "- PPO: `baselines.ppo` (one network shared by every agent, on the batched env) for "
         "the budget of agent-steps the table states, then its final checkpoint is scored; "
         "through a stream, `baselines.lifelong --method finetune` over the stream's life "
-        "scaled to the budget, scored by its last evaluation block.",
+        "scaled to the budget, scored by its last evaluation block. Options: "
+        + (", ".join(f"`{k}={v}`" for k, v in summary["options"].items()) or "none")
+        + ", the learner's defaults otherwise (a task's own, if any, in the settings file).",
         "- Figures: interquartile mean over seeds (95% stratified bootstrap interval). "
         "Normalised: random play 0, scripted play 1 (the means of their seeds).",
         "- Verdicts: " + "; ".join(f"**{name}**: {text}" for name, text in VERDICTS.items()) + ".",
@@ -218,8 +245,10 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
     ]
     if agg is not None:
         lines.append(
-            f"Aggregate normalised IQM of PPO over the {agg['tasks']} tasks it was run on: "
-            f"**{agg['iqm']:.3g}** (95% interval {agg['low']:.3g} to {agg['high']:.3g})."
+            f"Aggregate normalised IQM of PPO over the {agg['tasks']} task"
+            + ("s" if agg["tasks"] != 1 else "")
+            + f" it was run on: **{agg['iqm']:.3g}** "
+            f"(95% interval {agg['low']:.3g} to {agg['high']:.3g})."
         )
     else:
         lines.append("PPO has not been run on any task yet.")
@@ -231,6 +260,8 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
         f"(random {cpu['random']:.0f} s, scripted {cpu['scripted']:.0f} s, "
         f"PPO {cpu['ppo']:.0f} s: training and scoring, summed over seeds).",
         "",
+        planned_text(summary),
+        "",
         f"```{{image}} {figure}",
         ":alt: PPO's normalised score per task, IQM over seeds with 95% intervals",
         ":width: 640px",
@@ -238,11 +269,11 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
         "",
         "## Scenarios",
         "",
-        *table([r for r in rows if r["kind"] == "scenario"]),
+        *table([r for r in rows if r["kind"] == "scenario"], summary["seeds"]),
         "",
         "## Streams",
         "",
-        *table([r for r in rows if r["kind"] == "stream"]),
+        *table([r for r in rows if r["kind"] == "stream"], summary["seeds"]),
         "",
         "## Not yet run",
         "",
@@ -255,6 +286,13 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
         )
     else:
         lines.append("Every task with a learner has its PPO results.")
+    if partial:
+        lines += [
+            "",
+            f"PPO has fewer than {summary['seeds']} seeds on "
+            + ", ".join(f"`{m}`" for m in partial)
+            + "; `make benchmark` runs the rest.",
+        ]
     lines += [
         "",
         "## Provenance",

@@ -76,7 +76,9 @@ def _benchmark(name: str, page_dir: Path) -> list[str]:
     def shown(x) -> str:
         if x is None:
             return "not yet run"
-        return f"{x['iqm']:.3g} ({x['low']:.3g} to {x['high']:.3g}), {x['seeds']} seeds"
+        return f"{x['iqm']:.3g} ({x['low']:.3g} to {x['high']:.3g}), {x['seeds']} seed" + (
+            "s" if x["seeds"] != 1 else ""
+        )
 
     page = os.path.relpath(DOCS / "benchmark.md", page_dir)
     rows = [
