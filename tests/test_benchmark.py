@@ -82,6 +82,7 @@ def made_up(out: Path, task: str, method: str, scores, budget: int = 0) -> None:
             "seed": k,
             "score": score,
             "budget": budget,
+            "agent_steps": budget,
             "cpu_seconds": 10.0,
             "commit": "abc1234",
             "versions": {"python": "3"},
@@ -97,7 +98,7 @@ def test_normalisation_iqm_and_verdicts_on_made_up_numbers(tmp_path):
     made_up(out, "fruits_poisons", "ppo", [7.0, 12.0, 17.0, 2.0], budget=500)
     made_up(out, "maze_goal", "random", [5.0, 5.0])
     made_up(out, "maze_goal", "scripted", [5.0, 5.0])  # no better than random: no scale
-    made_up(out, "maze_goal", "ppo", [9.0, 9.0])
+    made_up(out, "maze_goal", "ppo", [9.0, 9.0], budget=500)
     tasks = [("fruits_poisons", "scenario"), ("maze_goal", "scenario"), ("key_door", "scenario")]
     summary = build(out, config, tasks)
     fruits, maze, key = summary["rows"]
@@ -118,6 +119,8 @@ def test_normalisation_iqm_and_verdicts_on_made_up_numbers(tmp_path):
     assert summary["aggregate"]["tasks"] == 1
     assert summary["aggregate"]["iqm"] == pytest.approx(0.75)
     assert summary["cpu_seconds"]["ppo"] == 60.0
+    assert summary["ppo_rate"] == 50.0  # 6 seeds of 500 agent-steps in 60 CPU seconds
+    assert summary["planned_steps"] == (500 + 500 + 32) * 2  # budgets (the config's 2 seeds)
 
     page = render(summary)
     assert "no scale: scripted does not beat random" in page
