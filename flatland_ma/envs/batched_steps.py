@@ -19,7 +19,7 @@ from flatland_ma.sensors.suite import Sensors
 
 def checked_at_once(
     actions, actuator: Actuator, worlds: list[FlatlandParallelEnv], ended: list[bool], m: int
-) -> list[list] | None:
+) -> list | None:
     """Each live agent's action, world by world (none for worlds ``ended``), as
     ``Actuator.check`` gives it, when ``actions`` is one array that lies in the space
     everywhere (integers of ``Discrete(n)``, or numbers in [-1, 1] of the continuous
@@ -40,8 +40,11 @@ def checked_at_once(
         if not np.isfinite(numbers).all() or np.abs(numbers).max() > 1.0:
             return None
         values = list(numbers)
+    # Tuples: each env keeps its actions for pickling, and tuples of numbers are left out
+    # of the garbage collector's scans (lists would make every step's add to them).
     return [
-        [] if ended[w] else [values[w * m + i] for i in env._live] for w, env in enumerate(worlds)
+        () if ended[w] else tuple([values[w * m + i] for i in env._live])
+        for w, env in enumerate(worlds)
     ]
 
 
