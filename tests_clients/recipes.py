@@ -4,7 +4,9 @@
 
 from __future__ import annotations
 
+import logging
 import re
+import sys
 from pathlib import Path
 
 GUIDE = Path(__file__).resolve().parent.parent / "docs" / "integrations.md"
@@ -85,6 +87,11 @@ def run(name: str, kind: str) -> dict:
     """Runs recipe ``name`` on scenario type ``kind``; returns its names."""
     namespace = {"__name__": f"recipe_{name}_{kind}"}
     exec(compile(runnable(name, kind), f"{GUIDE.name}:{name}:{kind}", "exec"), namespace)
+    # skrl logs again when the process exits (it closes its envs then), through a handler
+    # made on the stderr of its import: under pytest, a captured stream closed by then.
+    for handler in logging.getLogger("skrl").handlers:
+        if isinstance(handler, logging.StreamHandler):
+            handler.setStream(sys.__stderr__)
     return namespace
 
 
