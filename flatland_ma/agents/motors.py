@@ -30,10 +30,10 @@ import numpy as np
 import pymunk
 from numba import types
 from numba.extending import intrinsic
-from numba.typed import List
 from pymunk._chipmunk import ffi
 
 from flatland_ma.agents.body import AgentBody
+from flatland_ma.sensors.lists import filled, put
 
 _VX, _VY, _ANGLE, _SPIN = 10, 11, 14, 15
 """Where ``cpBody`` keeps v.x, v.y, a and w, in doubles from its start (Chipmunk 7: two
@@ -184,8 +184,8 @@ class Poses:
     as ``Geometry.refresh_poses`` fills it), ``read(which)`` for the worlds ``which``."""
 
     def __init__(self, worlds: int):
-        self._poses = List([np.zeros((0, 3), np.float64)] * worlds)  # type: ignore[operator]
-        self._bodies = List([np.zeros(0, np.intp)] * worlds)  # type: ignore[operator]
+        self._poses = filled(np.zeros((0, 3), np.float64), worlds)
+        self._bodies = filled(np.zeros(0, np.intp), worlds)
         self._keep: list[list] = [[] for _ in range(worlds)]
         """Each world's bodies: their structs live while they are referenced here."""
 
@@ -195,8 +195,8 @@ class Poses:
 
     def place(self, w: int, pose: np.ndarray, bodies: list[pymunk.Body]) -> None:
         self._keep[w] = list(bodies)
-        self._poses[w] = pose
-        self._bodies[w] = np.array([address(b) for b in bodies], np.intp)
+        put(self._poses, w, pose)
+        put(self._bodies, w, np.array([address(b) for b in bodies], np.intp))
 
     def read(self, which: np.ndarray) -> None:
         _read_poses(self._poses, self._bodies, which)

@@ -12,10 +12,10 @@ from collections.abc import Callable
 import numba as nb
 import numpy as np
 from gymnasium import spaces
-from numba.typed import List
 
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.geometry import Geometry
+from flatland_ma.sensors.lists import filled, put
 from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
 from flatland_ma.sensors.semantic import kind_table
 from flatland_ma.sensors.sensor import Sensor
@@ -181,9 +181,9 @@ class WorldsKernel:
     def set(self, w: int, suite: Sensors) -> None:
         args = suite.kernel_args
         if self.worlds is None:
-            self.worlds = List([args] * self.n)  # type: ignore[operator]  # a class at runtime
+            self.worlds = filled(args, self.n)
         else:
-            self.worlds[w] = args
+            put(self.worlds, w, args)
 
     def observe(self, which: np.ndarray) -> None:
         if self._function is None:
