@@ -14,7 +14,7 @@ from numba.typed import List
 @nb.njit(cache=True)
 def filled(item, n: int) -> List:
     """A typed list of ``n`` references to ``item``."""
-    items = List()
+    items = List()  # type: ignore[operator]  # a class at runtime
     for _ in range(n):
         items.append(item)
     return items
