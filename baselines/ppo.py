@@ -16,6 +16,12 @@ that finished while its world plays on (``infos["active"]`` False), and every sl
 world being reset (the batched env resets in Gymnasium's NEXT_STEP mode). A truncated
 episode bootstraps from the value of its last observation, which that mode returns.
 
+Options beyond CleanRL's, each off by default: ``--preset NAME``, settings chosen for a
+task (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's
+summed reward, and ``--shaping W``, a potential-based term for delivery tasks
+(``baselines.shaping``); ``--curriculum FILE``, the tasks of a stream file in turn
+(``baselines.curriculum``). The log always keeps each agent's own, unshaped return.
+
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
 episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
 JSON description and the optimiser's state: ``flatland_ma.policies.checkpoint``), and in
