@@ -15,6 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.module_runner import run_module as forked
+
 pytest.importorskip("torch")
 pytest.importorskip("supersuit")
 pytest.importorskip("tyro")
@@ -37,14 +39,9 @@ alone and minutes on a loaded 2-core machine."""
 
 
 def run_module(module: str, *args: str, timeout: float = HANG_GUARD) -> str:
-    result = subprocess.run(
-        [sys.executable, "-m", module, *args],
-        cwd=ROOT,
-        env=ENV,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
+    """``python -m module *args``, in a process of its own forked from a server that has
+    imported torch and the package (``tests.module_runner``)."""
+    result = forked(module, *args, env=ENV, cwd=ROOT, timeout=timeout)
     assert result.returncode == 0, result.stdout[-2000:] + result.stderr[-4000:]
     return result.stdout
 
@@ -756,13 +753,8 @@ def test_lifelong_learners_write_what_the_report_reads(tmp_path):
 
 
 def test_the_lifelong_learner_refuses_ppo_options_it_does_not_use():
-    result = subprocess.run(
-        [sys.executable, "-m", "baselines.lifelong", "--critic", "state", "--shards", "2"],
-        cwd=ROOT,
-        env=ENV,
-        capture_output=True,
-        text=True,
-        timeout=HANG_GUARD,
+    result = forked(
+        "baselines.lifelong", "--critic", "state", "--shards", "2", env=ENV, timeout=HANG_GUARD
     )
     assert result.returncode == 1
     assert "does not take --critic state, --shards" in result.stderr

@@ -4,8 +4,6 @@ shaping, and the CPU time a run's summary records."""
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -14,6 +12,7 @@ from baselines.ppo import Args
 from baselines.ppo_presets import PRESETS, with_preset
 from baselines.shaping import DeliveryPotential, Shaping, learning_reward, team_rewards
 from flatland_ma.envs.vector import BatchedParallelEnv
+from tests.module_runner import run_module
 
 
 def test_a_preset_fills_only_the_options_left_at_their_defaults():
@@ -96,10 +95,8 @@ def test_the_learning_reward_adds_team_and_shaping_terms_and_is_none_without_the
 
 def test_a_run_records_its_cpu_time_and_the_load_and_logs_the_scenarios_return(tmp_path):
     csv = tmp_path / "seed_0.csv"
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
+    result = run_module(
+        *[
             "baselines.ppo",
             "--scenario",
             "fruits_poisons",
@@ -114,10 +111,9 @@ def test_a_run_records_its_cpu_time_and_the_load_and_logs_the_scenarios_return(t
             "--no-tensorboard",
             "--csv",
             str(csv),
-        ],
-        check=True,
-        capture_output=True,
+        ]
     )
+    assert result.returncode == 0, result.stderr[-3000:]
     summary = json.loads(csv.with_suffix(".json").read_text())
     assert summary["cpu_seconds"] > 0
     assert len(summary["load_average_start"]) == len(summary["load_average_end"]) == 3
@@ -135,10 +131,11 @@ def test_a_curriculum_trains_on_each_stage_in_turn_for_its_steps(tmp_path):
         " steps: 200}\n"
     )
     csv = tmp_path / "seed_0.csv"
-    run = [sys.executable, "-m", "baselines.ppo", "--scenario", "fruits_poisons"]
+    run = ["--scenario", "fruits_poisons"]
     run += ["--curriculum", str(stream), "--num-envs", "1", "--num-steps", "50"]
     run += ["--checkpoint-every", "0", "--no-tensorboard", "--csv", str(csv)]
-    subprocess.run(run, check=True, capture_output=True)
+    result = run_module("baselines.ppo", *run)
+    assert result.returncode == 0, result.stderr[-3000:]
     steps = [int(row.split(",")[2]) for row in csv.read_text().splitlines()[1:]]
     summary = json.loads(csv.with_suffix(".json").read_text())
     short, long = summary["curriculum"]
