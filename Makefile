@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow test-rllib test-clients soak bench docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
+.PHONY: demo test test-slow test-rllib test-clients soak bench performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -72,6 +72,13 @@ soak: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/flatland-ma bench
 	$(BIN)/flatland-ma bench --scale
+
+# A new `bench --scale --json` run into benchmarks/results/scale.json, and docs/performance.md's
+# table of it (benchmarks/performance_table.py). Run it on a machine nothing else loads.
+performance-page: $(STAMP)
+	$(BIN)/flatland-ma bench --scale --json > benchmarks/results/scale.json.part
+	mv benchmarks/results/scale.json.part benchmarks/results/scale.json
+	$(BIN)/python -m benchmarks.performance_table
 
 # The scenario format's reference and the JSON schema shipped for editors, both written
 # from the models (tests/test_scenario_schema.py checks that they are up to date).
