@@ -1,4 +1,4 @@
-"""Every scenario whose agents share one body, batched, returns exactly what separate
+"""Every scenario whose agents share one space, batched, returns exactly what separate
 parallel envs return for the same seeds and actions, through automatic resets:
 observations, rewards, terminations, truncations, which slots act, and every info entry.
 The batched env drives plain bodies, reads poses and writes observations and counters
@@ -13,7 +13,18 @@ import flatland_ma
 from flatland_ma.agents.motors import FIELDS_FOUND
 from flatland_ma.envs.vector import BatchedParallelEnv
 
-ALIKE = [s for s in flatland_ma.list_scenarios() if not flatland_ma.load_scenario(s).heterogeneous]
+
+def _alike(scenario: str) -> bool:
+    env = flatland_ma.parallel_env(scenario)
+    agents = env.possible_agents
+    spaces = {(str(env.observation_space(a)), str(env.action_space(a))) for a in agents}
+    env.close()
+    return len(spaces) == 1
+
+
+ALIKE = [s for s in flatland_ma.list_scenarios() if _alike(s)]
+"""The scenarios whose agents share one observation and action space, which a batch takes
+unpadded (the others it takes padded: tests/test_heterogeneous.py)."""
 WORLDS, STEPS, CYCLES = 3, 24, 9
 """Three worlds for 24 steps of 9-step episodes: each world resets twice or more."""
 

@@ -1,6 +1,7 @@
 """The batched env spread over processes returns exactly what one batched env returns:
 several agents, early finishers, automatic resets, Dict observations and non-numeric
-infos; bad actions change nothing in any process; a dead process is named."""
+infos, on every scenario whose agents are alike; bad actions change nothing in any process;
+a dead process is named."""
 
 import os
 import signal
@@ -14,6 +15,7 @@ from flatland_ma.envs.gym_vector import FlatlandVectorEnv
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.registration import gym_id
+from tests.test_batched_scenarios import ALIKE
 
 GOALS = {
     "items": [
@@ -116,3 +118,10 @@ def test_make_vec_spreads_worlds_over_processes():
         assert data_equivalence(sharded.step(actions), reference.step(actions), exact=True)
     sharded.close()
     reference.close()
+
+
+@pytest.mark.parametrize("scenario", ALIKE)
+def test_every_scenario_over_two_processes_matches_one_batch(scenario):
+    # One batch matches separate envs on each of these (tests/test_batched_scenarios.py);
+    # this closes the chain for the processes: 3 worlds of 9-step episodes, 24 steps.
+    _same_as_one_batch(scenario, 3, 2, 24, context="fork", max_cycles=9)
