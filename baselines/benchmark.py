@@ -23,8 +23,9 @@ A task is a shipped scenario (``flatland_ma.list_scenarios()``) or a shipped str
 Methods: ``random`` (every agent uniform at random, seeded by the seed), ``scripted`` (the
 reference solver ``flatland_ma.scores_header.solver_names`` gives each agent, seeded by the
 seed) and ``ppo``: ``baselines.ppo`` on a scenario, ``baselines.lifelong --method
-finetune`` through a stream, for the task's budget of agent-steps (``baselines/benchmark.yaml``),
-then the final checkpoint is scored (a stream: its learner's last evaluation block).
+finetune`` through a stream of tasks and ``baselines.never_ending`` through the never-ending
+one, for the task's budget of agent-steps (``baselines/benchmark.yaml``), then the final
+checkpoint is scored (a stream of tasks: by its learner's last evaluation block).
 
 Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (the score, each episode's,
 the budget, agent-steps, CPU and wall seconds, versions, commit, machine load); a seed
@@ -270,7 +271,13 @@ def run_one(name: str, kind: str, method: str, seed: int, config, runs: Path) ->
     if method == "ppo" and kind == "scenario":
         budget = task.budget
         checkpoint, steps = train_scenario(name, seed, task, runs)
-    if method == "ppo" and kind == "stream":
+    if method == "ppo" and kind == "stream" and never_ending(name):
+        from baselines import never_ending as endless
+
+        budget = task.budget
+        checkpoint, steps = endless.train(name, seed, task.budget, dict(task.ppo), runs)
+        score, episodes, parts = play_task(name, kind, method, seed, config, checkpoint)
+    elif method == "ppo" and kind == "stream":
         budget = task.budget
         learnt, steps = train_stream(name, seed, task, runs, config)
         score, episodes, parts = float(np.mean(list(learnt.values()))), [], learnt
@@ -309,13 +316,16 @@ def write_record(path: Path, record: dict) -> None:
 
 
 def ppo_possible(name: str, kind: str) -> bool:
-    """Whether a shipped learner can train on the task: every scenario, and every stream
-    of tasks (``baselines.lifelong`` does not live the never-ending stream)."""
-    if kind == "scenario":
-        return True
+    """Whether a shipped learner can train on the task: every scenario and every stream
+    (a stream of tasks through ``baselines.lifelong``, the never-ending one through
+    ``baselines.never_ending``)."""
+    return kind in ("scenario", "stream")
+
+
+def never_ending(name: str) -> bool:
     from flatland_ma.lifelong import load_stream
 
-    return not load_stream(name).never_ending
+    return bool(load_stream(name).never_ending)
 
 
 def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS, hours: float = 0.0):

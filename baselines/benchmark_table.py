@@ -23,6 +23,7 @@ import numpy as np
 
 from baselines.benchmark import OUT, ROOT, list_tasks, ppo_possible
 from baselines.benchmark_config import METHODS, BenchmarkConfig, load_config
+from baselines.levels import LEVELS_OUT, read_levels, render_levels
 from flatland_ma.evaluation.stats import normalise, stratified_bootstrap
 
 PAGE = ROOT / "docs" / "benchmark.md"
@@ -99,8 +100,9 @@ def task_row(name: str, kind: str, methods: dict[str, list[dict]], config) -> di
     return row
 
 
-def build(root: Path, config: BenchmarkConfig, tasks=None) -> dict:
-    """Every task's row and the aggregate over tasks, from the JSON under ``root``."""
+def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None = None) -> dict:
+    """Every task's row and the aggregate over tasks, from the JSON under ``root`` (and the
+    level runs under ``levels``, if given)."""
     results = read_results(root)
     rows = [task_row(n, k, results.get(n, {}), config) for n, k in (tasks or list_tasks())]
     scored = [r["normalised_seeds"] for r in rows if r["normalised"] is not None]
@@ -127,6 +129,7 @@ def build(root: Path, config: BenchmarkConfig, tasks=None) -> dict:
         "seeds": config.seeds,
         "options": dict(config.default.ppo),
         "episodes": config.episodes,
+        "levels": read_levels(levels) if levels is not None else None,
     }
 
 
@@ -293,6 +296,8 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
             + ", ".join(f"`{m}`" for m in partial)
             + "; `make benchmark` runs the rest.",
         ]
+    if summary.get("levels") is not None:
+        lines += ["", *render_levels(summary["levels"])]
     lines += [
         "",
         "## Provenance",
@@ -344,9 +349,13 @@ def scenario_summary(summary: dict) -> dict:
     return {r["task"]: {k: r[k] for k in keep} for r in summary["rows"]}
 
 
-def write(root: Path = OUT, config_path: str | Path = ROOT / "baselines" / "benchmark.yaml"):
+def write(
+    root: Path = OUT,
+    config_path: str | Path = ROOT / "baselines" / "benchmark.yaml",
+    levels: Path = LEVELS_OUT,
+):
     """Rebuild the page, the figure and summary.json from the JSON under ``root``."""
-    summary = build(root, load_config(config_path))
+    summary = build(root, load_config(config_path), levels=levels)
     PAGE.write_text(render(summary), encoding="utf-8")
     draw(summary, FIGURE)
     (root / "summary.json").write_text(

@@ -21,6 +21,7 @@ from baselines.benchmark_table import (  # noqa: E402
     scenario_summary,
     verdict,
 )
+from baselines.levels import LEVELS_OUT, read_levels, record, render_levels  # noqa: E402
 
 TASK = [("fruits_poisons", "scenario")]
 
@@ -166,7 +167,7 @@ def test_a_bad_config_fails_naming_the_key(tmp_path, text, key):
 def test_the_page_is_up_to_date_with_the_committed_results():
     """docs/benchmark.md and results/benchmark/summary.json are written from the committed
     JSON: rebuild them with ``make benchmark-table``."""
-    summary = build(OUT, load_config(ROOT / "baselines" / "benchmark.yaml"))
+    summary = build(OUT, load_config(ROOT / "baselines" / "benchmark.yaml"), levels=LEVELS_OUT)
     written = (ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8")
     assert written == render(summary), "docs/benchmark.md is out of date: make benchmark-table"
     shown = json.loads((OUT / "summary.json").read_text(encoding="utf-8"))
@@ -194,3 +195,64 @@ def test_a_stream_is_scored_on_each_of_its_tasks(tmp_path):
     assert list(record["parts"]) == labels and len(record["episodes"]) == len(labels)
     assert record["score"] == pytest.approx(np.mean(list(record["parts"].values())))
     assert record["parts"] == dict(zip(labels, record["episodes"]))  # one episode each
+
+
+def test_ppo_lives_the_never_ending_stream_and_is_scored_on_its_first_steps(tmp_path):
+    config = tiny_config(tmp_path / "bench.yaml")
+    config = config.model_copy(update={"never_ending_steps": 20})
+    out, runs = tmp_path / "results", tmp_path / "runs"
+    (path,) = run(config, [("never_ending", "stream")], ["ppo"], out, runs)[:1]
+    record = json.loads(path.read_text())
+    assert record["budget"] == 32 and record["agent_steps"] == 32  # no episode ever ended
+    checkpoint = runs / "never_ending" / "ppo" / "seed_0.safetensors"
+    assert checkpoint.is_file()
+    # Scored as random and scripted play are: the held-out episodes, 20 steps each.
+    assert len(record["episodes"]) == 1 and record["score"] == record["episodes"][0]
+
+
+def _fake_run(tmp_path: Path, returns: list[float], wall: float, agents: int = 1) -> Path:
+    """A finished baselines.ppo run's log and JSON: one episode every 100 steps and second."""
+    log = tmp_path / "seed_2.csv"
+    rows = ["seed,episode,step,agent,return,score,fruits,poisons,wall_time"]
+    for k, value in enumerate(returns):
+        for a in range(agents):
+            rows.append(f"2,{k},{100 * (k + 1)},agent_{a},{value},{value},0,0,{k + 1.0}")
+    log.write_text("\n".join(rows) + "\n")
+    args = {"scenario": "fruits_poisons", "seed": 2, "csv": str(log), "preset": "fruits_poisons"}
+    run = {"args": args, "steps": 100 * len(returns), "wall_seconds": wall, "cpu_seconds": wall}
+    log.with_suffix(".json").write_text(json.dumps(run))
+    return log
+
+
+def test_a_level_record_reads_the_last_50_and_when_the_level_was_first_reached(tmp_path):
+    returns = [0.0] * 60 + [400.0] * 30 + [290.0] * 50  # the mean of 50 passes 300 on the way
+    log = _fake_run(tmp_path, returns, wall=500.0)
+    path = record("fruits_poisons_300", log, tmp_path / "levels")
+    got = json.loads(path.read_text())
+    assert got["last_50"] == 290.0
+    means = [np.mean(returns[max(0, k - 49) : k + 1]) for k in range(49, len(returns))]
+    assert got["best_50"] == pytest.approx(max(means))
+    first = 49 + next(k for k, m in enumerate(means) if m >= 300)
+    assert got["first_at_step"] == 100 * (first + 1) and got["first_at_wall"] == first + 1.0
+    assert got["met"] is False  # 290 at the end: passing 300 on the way is not holding it
+    log = _fake_run(tmp_path, [310.0] * 60, wall=700.0)
+    slow = json.loads(record("fruits_poisons_300", log, tmp_path / "levels").read_text())
+    assert slow["last_50"] == 310.0 and slow["met"] is False  # over the 10 minutes
+    log = _fake_run(tmp_path, [310.0] * 60, wall=590.0, agents=2)
+    fast = record("fruits_poisons_300", log, tmp_path / "levels", tag="fast")
+    assert json.loads(fast.read_text())["met"] is True
+    assert json.loads(fast.read_text())["episodes"] == 60
+    lines = "\n".join(render_levels(read_levels(tmp_path / "levels")))
+    assert "| `fast` | 2 | `preset` fruits_poisons |" in lines
+    assert "| `ppo` | 2 | `preset` fruits_poisons |" in lines  # the slow run, kept apart
+    assert (
+        "**not met**: at best 1 of the 5 seeds it asks for, among runs of one setting (2 runs"
+        in lines
+    )
+    assert "**not met**: no run recorded." in lines  # the cooperative levels, here unrun
+
+
+def test_a_level_refuses_a_run_of_another_task(tmp_path):
+    log = _fake_run(tmp_path, [1.0] * 60, wall=10.0)
+    with pytest.raises(ValueError, match="not 'coop_carry'"):
+        record("coop_carry_half", log, tmp_path / "levels")

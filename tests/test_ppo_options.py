@@ -4,10 +4,12 @@ shaping, and the CPU time a run's summary records."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import flatland_ma
 from baselines.ppo import Args
 from baselines.ppo_presets import PRESETS, with_preset
 from baselines.shaping import DeliveryPotential, Shaping, learning_reward, team_rewards
@@ -144,3 +146,15 @@ def test_a_curriculum_trains_on_each_stage_in_turn_for_its_steps(tmp_path):
     assert 200 <= long["began"] < 250
     # Four episodes of 50 steps, then one of 100: the second stage's worlds.
     assert steps == [50, 100, 150, 200, long["began"] + 100]
+
+
+@pytest.mark.parametrize(
+    "path", sorted((Path(__file__).parent.parent / "baselines" / "curricula").glob("*.yaml"))
+)
+def test_the_shipped_curricula_load_and_end_on_their_task(path):
+    from baselines.curriculum import curriculum_stages
+
+    stages = curriculum_stages(path)
+    assert len(stages) >= 2 and all(stage.steps > 0 for stage in stages)
+    assert stages[-1].spec == flatland_ma.load_scenario(stages[-1].name)  # the task itself
+    assert all(stage.spec != stages[-1].spec for stage in stages[:-1])  # easier first

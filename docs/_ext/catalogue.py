@@ -23,7 +23,7 @@ from pages import (
 from pages import (
     picture as image,
 )
-from scenario_page import scenario_page
+from scenario_page import benchmark_section, scenario_page
 
 from flatland_ma.evaluation.suite import list_suites, load_suite, suite_dir
 from flatland_ma.lifelong.streams import list_streams, load_stream
@@ -152,6 +152,7 @@ def stream_page(name: str, page_dir: Path, docs: Path) -> str:
             f"({compact(ne.drift)}). Overrides: {_overrides(ne.overrides)}.",
             "",
         ]
+    parts += benchmark_section(name, page_dir)
     parts += ["## The file", "", literal_file(path, page_dir), ""]
     return "\n".join(parts)
 

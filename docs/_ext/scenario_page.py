@@ -59,14 +59,15 @@ def scenario_page(name: str, page_dir: Path, images: Path) -> str:
             f"{ref.min_score:g} over {ref.episodes} episodes.",
             "",
         ]
-    parts += _benchmark(name, page_dir)
+    parts += benchmark_section(name, page_dir)
     parts += _overrides(name, spec)
     parts += ["## The file", "", literal_file(path, page_dir), ""]
     return "\n".join(parts)
 
 
-def _benchmark(name: str, page_dir: Path) -> list[str]:
-    """The scenario's figures from the benchmark (IQM over seeds, 95% interval), if any."""
+def benchmark_section(name: str, page_dir: Path) -> list[str]:
+    """A scenario's or stream's figures from the benchmark (IQM over seeds, 95% interval),
+    if any."""
     if not BENCHMARK.is_file():
         return []
     row = json.loads(BENCHMARK.read_text(encoding="utf-8")).get(name)
