@@ -73,11 +73,22 @@ bench: $(STAMP)
 	$(BIN)/flatland-ma bench
 	$(BIN)/flatland-ma bench --scale
 
-# A new `bench --scale --json` run into benchmarks/results/scale.json, and docs/performance.md's
-# table of it (benchmarks/performance_table.py). Run it on a machine nothing else loads.
-performance-page: $(STAMP)
+# A new `bench --scale --json` run into benchmarks/results/scale.json, then VMAS beside
+# flatland_ma in the same run (benchmarks/peers.py, VMAS in .venv-vmas: its pins clash with
+# ours), and docs/performance.md's tables of both (benchmarks/performance_table.py). Run it
+# on a machine nothing else loads.
+VMAS_VENV := .venv-vmas
+$(VMAS_VENV)/.installed:
+	$(PYTHON) -m venv $(VMAS_VENV)
+	$(VMAS_VENV)/bin/python -m pip install --quiet "$(TORCH)" || \
+		$(VMAS_VENV)/bin/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
+	$(VMAS_VENV)/bin/python -m pip install --quiet vmas==1.5.2
+	touch $@
+
+performance-page: $(STAMP) $(VMAS_VENV)/.installed
 	$(BIN)/flatland-ma bench --scale --json > benchmarks/results/scale.json.part
 	mv benchmarks/results/scale.json.part benchmarks/results/scale.json
+	VMAS_PYTHON=$(VMAS_VENV)/bin/python $(BIN)/python -m benchmarks.peers
 	$(BIN)/python -m benchmarks.performance_table
 
 # The scenario format's reference and the JSON schema shipped for editors, both written
@@ -176,4 +187,4 @@ lint: $(STAMP)
 	$(BIN)/pyright
 
 clean:
-	rm -rf $(VENV) $(RLLIB) .venv-clients-* demo .pytest_cache docs/_build docs/catalogue
+	rm -rf $(VENV) $(RLLIB) .venv-clients-* $(VMAS_VENV) demo .pytest_cache docs/_build docs/catalogue

@@ -1,13 +1,16 @@
-"""docs/performance.md's table of the latest `flatland-ma bench --scale --json` run, written
-from its JSON (committed in benchmarks/results/scale.json), so that the page holds what
-the bench measured, with each row's threads and load.
+"""docs/performance.md's tables of the latest `flatland-ma bench --scale --json` run and of
+flatland_ma beside VMAS (benchmarks/peers.py), written from their JSON (committed in
+benchmarks/results/scale.json and peers.json), so that the page holds what was measured,
+with each row's threads and load.
 
     flatland-ma bench --scale --json > benchmarks/results/scale.json   # a new measurement
+    VMAS_PYTHON=.venv-vmas/bin/python python -m benchmarks.peers        # VMAS beside it
     python -m benchmarks.performance_table                               # rewrite the page
 
-``make performance-page`` does both. The table sits between the page's ``<!-- scale-json
--->`` and ``<!-- /scale-json -->`` marks; tests/test_performance_page.py checks that it is
-what this module writes from the committed JSON."""
+``make performance-page`` does all three, one after another. The tables sit between the
+page's ``<!-- scale-json -->`` and ``<!-- peers-json -->`` marks and their closing marks;
+tests/test_performance_page.py checks that they are what this module writes from the
+committed JSON."""
 
 from __future__ import annotations
 
@@ -17,8 +20,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "scale.json"
+PEERS = ROOT / "benchmarks" / "results" / "peers.json"
 PAGE = ROOT / "docs" / "performance.md"
 BEGIN, END = "<!-- scale-json -->", "<!-- /scale-json -->"
+PEERS_BEGIN, PEERS_END = "<!-- peers-json -->", "<!-- /peers-json -->"
 
 
 def _number(value: float | None) -> str:
@@ -52,22 +57,67 @@ def table(data: dict) -> str:
     return "\n".join(lines) + "\n\n" + "\n".join(notes)
 
 
-def rewrite(page: str, data: dict) -> str:
-    """``page`` with the text between the marks replaced by the table of ``data``."""
-    head, begin, rest = page.partition(BEGIN)
-    _, end, tail = rest.partition(END)
-    if not begin or not end:
-        raise ValueError(f"the page has no {BEGIN} ... {END} section")
-    return f"{head}{BEGIN}\n{table(data)}\n{END}{tail}"
+def _cell(row: dict | None) -> str:
+    if row is None:
+        return "-"
+    return _number(row["agent_steps_per_s"]) + (" (BUSY)" if row["busy"] else "")
+
+
+def peers_table(data: dict) -> str:
+    """flatland_ma beside VMAS (benchmarks/peers.py), one line per size and core count."""
+    found: dict[tuple[int, int], dict[str, dict]] = {}
+    for row in data["rows"]:
+        system = "vmas" if row["system"].startswith("vmas") else row["sensor"]
+        found.setdefault((row["cores"], row["worlds"]), {})[system] = row
+    versions = sorted({row["system"] for row in data["rows"]})
+    lines = [
+        "| worlds x agents | cores | VMAS, lidar | flatland_ma, lidar | flatland_ma, camera "
+        "| flatland_ma camera / VMAS | load |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for (n_cores, worlds), systems in sorted(found.items()):
+        vmas, camera = systems.get("vmas"), systems.get("camera")
+        ratio = (
+            f"{camera['agent_steps_per_s'] / vmas['agent_steps_per_s']:.1f}x"
+            if vmas and camera
+            else "-"
+        )
+        loads = [row["load_average"] for row in systems.values()]
+        agents = next(iter(systems.values()))["agents"]
+        lines.append(
+            f"| {worlds} x {agents} | {n_cores} | {_cell(vmas)} | {_cell(systems.get('lidar'))} "
+            f"| {_cell(camera)} | {ratio} | {min(loads):.2f}-{max(loads):.2f} |"
+        )
+    note = f"- Agent steps per second; {', '.join(versions)}; scenario {data['scenario']}."
+    return "\n".join(lines) + "\n\n" + note
+
+
+def _replace(page: str, begin: str, end: str, text: str) -> str:
+    head, found_begin, rest = page.partition(begin)
+    _, found_end, tail = rest.partition(end)
+    if not found_begin or not found_end:
+        raise ValueError(f"the page has no {begin} ... {end} section")
+    return f"{head}{begin}\n{text}\n{end}{tail}"
+
+
+def rewrite(page: str, data: dict, peers: dict | None = None) -> str:
+    """``page`` with the text between the marks replaced by the table of ``data``, and the
+    text between the peers marks by the table of ``peers`` if given."""
+    page = _replace(page, BEGIN, END, table(data))
+    if peers is not None:
+        page = _replace(page, PEERS_BEGIN, PEERS_END, peers_table(peers))
+    return page
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--results", type=Path, default=RESULTS)
+    parser.add_argument("--peers", type=Path, default=PEERS)
     parser.add_argument("--page", type=Path, default=PAGE)
     args = parser.parse_args(argv)
     data = json.loads(args.results.read_text())
-    args.page.write_text(rewrite(args.page.read_text(), data))
+    peers = json.loads(args.peers.read_text()) if args.peers.exists() else None
+    args.page.write_text(rewrite(args.page.read_text(), data, peers))
 
 
 if __name__ == "__main__":

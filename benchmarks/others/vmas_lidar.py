@@ -3,7 +3,7 @@
 A square room (4 walls), 4 obstacles and 20 round items, 1 or 4 agents; every lidar ray
 is cast against every collidable entity, as the flatland_ma camera's rays are. Prints JSON:
 world steps/s and agent steps/s for each number of worlds, at 1 torch thread and at every
-core. Run it in its own environment (see README.md in this folder).
+core (``--threads`` to choose). Run it in its own environment (see README.md in this folder).
 
     python vmas_lidar.py --worlds 1 16 256 1024 --agents 1 4 --seconds 3
 """
@@ -85,9 +85,10 @@ def main() -> None:
     parser.add_argument("--worlds", type=int, nargs="+", default=[1, 16, 256, 1024])
     parser.add_argument("--agents", type=int, nargs="+", default=[1, 4])
     parser.add_argument("--seconds", type=float, default=3.0)
+    parser.add_argument("--threads", type=int, nargs="+", default=sorted({1, os.cpu_count() or 1}))
     args = parser.parse_args()
     rows = []
-    for threads in sorted({1, os.cpu_count() or 1}):
+    for threads in args.threads:
         torch.set_num_threads(threads)
         for agents in args.agents:
             for worlds in args.worlds:
