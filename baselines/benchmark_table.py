@@ -235,8 +235,10 @@ def render(summary: dict, figure: str = "images/benchmark.png") -> str:
         "is the mean over its tasks (the never-ending stream: its first 1000 steps).",
         "- PPO: `baselines.ppo` (one network shared by every agent, on the batched env) for "
         "the budget of agent-steps the table states, then its final checkpoint is scored; "
-        "through a stream, `baselines.lifelong --method finetune` over the stream's life "
-        "scaled to the budget, scored by its last evaluation block. Options: "
+        "through a stream of tasks, `baselines.lifelong --method finetune` over the stream's "
+        "life scaled to the budget, scored by its last evaluation block; through the "
+        "never-ending stream, the same learner for the budget (`baselines/never_ending.py`), "
+        "its checkpoint then scored as random and scripted play are. Options: "
         + (", ".join(f"`{k}={v}`" for k, v in summary["options"].items()) or "none")
         + ", the learner's defaults otherwise (a task's own, if any, in the settings file).",
         "- Figures: interquartile mean over seeds (95% stratified bootstrap interval). "

@@ -131,7 +131,7 @@ def held_out(task: str, seed: int, checkpoint: Path) -> dict:
     return {
         "held_out": round(score, 6),
         "held_out_episodes": [round(e, 6) for e in episodes],
-        "normalised": round(float(normalise(score, low, high)), 6),
+        "normalised": round(float(normalise(score, low, high)), 6) + 0.0,  # no -0.0
     }
 
 
