@@ -21,13 +21,12 @@ import json
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
 import flatland_ma
 from flatland_ma.bench_load import LoadMeter
-from flatland_ma.bench_scale import cores
+from flatland_ma.bench_scale import cores, timed_steps
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "peers.json"
@@ -76,18 +75,7 @@ def flatland_row(sensor: str, worlds: int, processes: int, seconds: float) -> di
     else:
         env = ShardedParallelEnv(SCENARIO, worlds, shards=processes, copy=False, **sensors)
     try:
-        env.reset(seed=0)
-        env.action_space.seed(0)
-        actions = [env.action_space.sample() for _ in range(16)]
-        env.step(actions[0])  # warm-up
-        meter = LoadMeter(cores())
-        meter.start()
-        rounds, start = 0, time.perf_counter()
-        while rounds < 3 or time.perf_counter() - start < seconds:
-            env.step(actions[rounds % len(actions)])
-            rounds += 1
-        rate = rounds * worlds / (time.perf_counter() - start)
-        load = meter.stop()
+        rate, load = timed_steps(env, worlds, seconds)
         agents = env.agents_per_world
     finally:
         env.close()

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from flatland_ma.bench import BenchResult, bare_space_rate
-from flatland_ma.bench_load import LoadMeter
+from flatland_ma.bench_load import Load, LoadMeter
 from flatland_ma.bench_targets import RayRate, bench_busy_core, bench_make_vec, bench_rays
 
 WORLDS = (1, 16, 256, 1024)
@@ -49,18 +49,7 @@ def bench_worlds(
     else:
         env = ShardedParallelEnv(scenario, worlds, shards=processes, copy=False, **overrides)
     try:
-        env.reset(seed=0)
-        env.action_space.seed(0)
-        actions = [env.action_space.sample() for _ in range(16)]
-        env.step(actions[0])  # warm-up
-        meter = LoadMeter(cores())
-        meter.start()
-        rounds, start = 0, time.perf_counter()
-        while rounds < 3 or time.perf_counter() - start < seconds:
-            env.step(actions[rounds % len(actions)])
-            rounds += 1
-        rate = rounds * worlds / (time.perf_counter() - start)
-        load = meter.stop()
+        rate, load = timed_steps(env, worlds, seconds)
         processes, agents = getattr(env, "num_shards", 1), env.agents_per_world
         threads = f"{processes} x 1" if processes > 1 else _kernel_threads(env)
     finally:
@@ -71,6 +60,24 @@ def bench_worlds(
     where = "1 process" if processes == 1 else f"{processes} processes"
     label = f"batched {scenario} x {worlds}, {where}"
     return BenchResult(label, agents, rate, bare, threads, load)
+
+
+def timed_steps(env, worlds: int, seconds: float) -> tuple[float, Load]:
+    """World steps per second of a batched (or sharded) env of ``worlds`` worlds stepped
+    with random actions for ``seconds`` (at least 3 steps, after a reset and one untimed
+    step), and what other processes did meanwhile."""
+    env.reset(seed=0)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(16)]
+    env.step(actions[0])  # warm-up
+    meter = LoadMeter(cores())
+    meter.start()
+    rounds, start = 0, time.perf_counter()
+    while rounds < 3 or time.perf_counter() - start < seconds:
+        env.step(actions[rounds % len(actions)])
+        rounds += 1
+    rate = rounds * worlds / (time.perf_counter() - start)
+    return rate, meter.stop()
 
 
 def _kernel_threads(env) -> str:
