@@ -21,10 +21,14 @@ TWO_THREADS = """import threading
 {make}
 env.reset(seed=0)
 errors = []
+both = threading.Barrier(2)
 
 def steps():
+    both.wait()  # start together, so that the steps overlap however busy the machine is
     try:
         for _ in range({steps}):
+            if errors:
+                return
             env.step({actions})
     except RuntimeError as err:
         errors.append(err)
@@ -142,7 +146,13 @@ BATCHED_CASES = [
         slow=True,
         time_limit=120.0,
     ),
-    threads("two_threads_on_a_single_env", SINGLE, "{'agent_0': 1}"),
+    # an episode long enough for both threads' steps: the only error left is the guard's
+    threads(
+        "two_threads_on_a_single_env",
+        "import flatland_ma\nenv = flatland_ma.parallel_env('fruits_poisons', max_cycles=10**6)\n",
+        "{'agent_0': 1}",
+        steps=3000,
+    ),
 ]
 
 SINGLE_CASES = [
