@@ -177,6 +177,13 @@ class Actuator:
             return table[np.asarray(codes, np.intp)]
         return np.array([a[:3] for a in actions], np.float64).reshape(-1, 3)
 
+    def base_commands_of(self, actions: np.ndarray) -> np.ndarray:
+        """``base_commands`` of a batch's array of actions, one per row, each in the space
+        (integers of ``Discrete``, or the continuous ``Box``'s numbers in float64)."""
+        if self.mode == "discrete":
+            return np.array([m.base for m in self.macros], np.float64)[actions]
+        return actions[:, :3].astype(np.float64)
+
     def _check_discrete(self, agent: str, action: object):
         if self.words:
             return self._check_words(agent, action)

@@ -136,6 +136,7 @@ class Motors:
     its motors' change of velocity for one substep, as ``command`` then ``drive`` do."""
 
     def __init__(self, slots: int):
+        self.slots = slots
         self.bodies = np.zeros(slots, np.intp)
         self.controls = np.zeros(slots, np.intp)
         self.limits = np.zeros((slots, 4), np.float64)
@@ -164,6 +165,11 @@ class Motors:
             len(slots),
         )
         _push(bodies, limits, touching, change, norms)
+
+    def drive_all(self, commands: np.ndarray) -> None:
+        """``drive`` of every slot, in slot order (each slot's body placed)."""
+        touching = np.fromiter((b.touching for b in self._keep), bool, self.slots)  # type: ignore[union-attr]
+        self.drive(np.arange(self.slots), commands, touching)
 
 
 @nb.njit(cache=True)

@@ -322,11 +322,12 @@ class FlatlandParallelEnv(ParallelEnv):
         live = self._live
         bodies, actuators = episode.bodies, self._actuators
         channel = episode.world.channel
-        for i, action in zip(live, checked):
-            if not acted:
-                actuators[i].apply(bodies[i], action)
-            if channel is not None:
-                channel.say(i, actuators[i].said(action))
+        if not acted or channel is not None:
+            for i, action in zip(live, checked):
+                if not acted:
+                    actuators[i].apply(bodies[i], action)
+                if channel is not None:
+                    channel.say(i, actuators[i].said(action))
         self._log.append(checked)
         episode.world.step()
         episode.hands.update()
@@ -337,7 +338,7 @@ class FlatlandParallelEnv(ParallelEnv):
             episode.sensors.prepare(poses)
         self.num_steps += 1
         truncated = self.step_limit is not None and self.num_steps >= self.step_limit
-        if truncated or any(terminated[i] for i in live):
+        if truncated or (True in terminated and any(terminated[i] for i in live)):
             self._live = [i for i in live if not (truncated or terminated[i])]
             for i in live:
                 if i not in self._live:

@@ -38,7 +38,8 @@ of actions is checked at once, every world's plain bodies are driven in one comp
 (``agents.motors``), each world simulates and applies its rules, every world's moving
 bodies' poses are read back in one call, the rays of every world are cast in one call of
 the compiled kernel, spread over numba's threads (``parallel=False``: on one), and each
-world's observations, rewards and counters are written as slices of the stacked arrays.
+world's observations, rewards and counters are written as slices of the stacked arrays
+(its counters only after a step that may have moved them: ``Task.revision``).
 """
 
 from __future__ import annotations
@@ -180,6 +181,9 @@ class BatchedParallelEnv:
         self._counters: dict[str, np.ndarray] = {}
         self._ended = [False] * num_worlds
         """Worlds whose episode ended on the last step: the next step resets them."""
+        self._revisions = [-1] * num_worlds
+        """Each world's ``Task.revision`` when its counters were last written: a step that
+        left it where it was changed none of them."""
         self._actuator = first._actuators[0]
         self._motors = (
             Motors(self.num_slots)
@@ -226,7 +230,7 @@ class BatchedParallelEnv:
             return self._step(actions)
 
     def _step(self, actions):
-        checked = self._check(actions)
+        checked, at_once = self._check(actions)
         m = self.agents_per_world
         self._rewards[:] = 0.0
         self._terminations[:] = False
@@ -252,7 +256,7 @@ class BatchedParallelEnv:
             motors = self._motors
             acted = motors is not None
             if motors is not None:
-                drive(motors, self._actuator, stepped, checked)
+                drive(motors, self._actuator, stepped, checked, at_once)
             poses = self._poses is None
             for w, env in stepped:
                 advanced.append((w, env, *env._advance(checked[w], False, acted, poses)))
@@ -271,8 +275,10 @@ class BatchedParallelEnv:
                 self._rewards[rows] = rewards if whole else [rewards[i] for i in live]
                 self._terminations[rows] = terminated if whole else [terminated[i] for i in live]
                 self._truncations[rows] = truncated
-                for key, values in task.columns(live).items():
-                    put_column(self._counter(key, values[0]), rows, base, live, values)
+                if task.revision != self._revisions[w]:  # the counters may have moved
+                    self._revisions[w] = task.revision
+                    for key, values in task.columns(live).items():
+                        put_column(self._counter(key, values[0]), rows, base, live, values)
                 if same_step:
                     for i in live:
                         if terminated[i] or truncated:
@@ -370,6 +376,7 @@ class BatchedParallelEnv:
             self._put(base + j, j, observations[agent])
             self._active[base + j] = True
             self._count(base + j, infos[agent])
+        self._revisions[w] = env.running.task.revision
         self._ended[w] = False
 
     def _observe(self, sensors: Sensors, base: int, live: list[int], rows) -> None:
@@ -389,8 +396,9 @@ class BatchedParallelEnv:
         else:
             self.padding.put(self._observations, agent, observation, slot)
 
-    def _check(self, actions) -> list[list]:
-        """Each live agent's action, checked, world by world; nothing is changed."""
+    def _check(self, actions) -> tuple[list[list], np.ndarray | None]:
+        """Each live agent's action, checked, world by world, and ``actions`` itself
+        when it was checked at once (one array in the space); nothing is changed."""
         if any(env.episode is None for env in self.worlds):
             raise RuntimeError("call reset() first")
         if self.autoreset_mode == AutoresetMode.DISABLED and any(self._ended):
@@ -402,7 +410,9 @@ class BatchedParallelEnv:
         check_batch_of_actions(actions, self.num_slots, self.single_action_space, self.layout)
         m = self.agents_per_world
         fast = checked_at_once(actions, self._actuator, self.worlds, self._ended, m)
-        return checked_by_slot(actions, self.worlds, self._ended, m) if fast is None else fast
+        if fast is None:
+            return checked_by_slot(actions, self.worlds, self._ended, m), None
+        return fast, actions
 
     def _count(self, slot: int, info: dict) -> None:
         for key, value in info.items():

@@ -163,6 +163,20 @@ def _observe_worlds_serial(worlds, which):
         kernel.observe(a[0], a[1], a[2], a[3], a[4], a[5], a[6])
 
 
+SHARED = (2, 4)
+"""The kernel's arguments that it only reads, and that every world of a fixed layout has
+alike: the grid of fixed shapes and the eyes. Worlds whose own are equal to the first
+world's are given the first world's, so the kernel reads one copy from the cache instead
+of one per world (at 256 worlds of ``fruits_poisons_multi``, 15 of their 29 KiB)."""
+
+
+def _equal(a: tuple, b: tuple) -> bool:
+    """Whether two named tuples of arrays hold the same arrays, dtype and all."""
+    return all(
+        x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y) for x, y in zip(a, b)
+    )
+
+
 class WorldsKernel:
     """One kernel call for the rays of many worlds of one scenario: ``set(w, suite)`` when
     world ``w`` gets a new episode's sensors, ``prepare`` each world's suite, then
@@ -176,14 +190,20 @@ class WorldsKernel:
         self.n = n
         self.parallel = parallel
         self.worlds = None
+        self._common: list = []
         self._function: Callable | None = None
 
     def set(self, w: int, suite: Sensors) -> None:
         args = suite.kernel_args
         if self.worlds is None:
             self.worlds = filled(args, self.n)
-        else:
-            put(self.worlds, w, args)
+            self._common = [args[k] for k in SHARED]
+            return
+        args = list(args)
+        for k, common in zip(SHARED, self._common):
+            if args[k] is not common and _equal(args[k], common):
+                args[k] = common
+        put(self.worlds, w, tuple(args))
 
     def observe(self, which: np.ndarray) -> None:
         if self._function is None:

@@ -21,7 +21,7 @@ class ItemRule(Rule):
         """Each group's reward, the file's at reset; a drifting world changes it."""
         self.has_keys = any(g.key for g in ctx.groups)
         self.items = ctx.world.of_type(Item)
-        self._waiting: list[Item] = []
+        self.waiting: list[Item] = []
         """Taken items due back, in the order they were taken."""
 
     def apply(self, step: Step) -> None:
@@ -46,16 +46,16 @@ class ItemRule(Rule):
             self.world.withdraw(item)
             if group.respawn is not None:
                 item.respawn_at = step.t + group.respawn
-                self._waiting.append(item)
-        if self._waiting:
+                self.waiting.append(item)
+        if self.waiting:
             self._respawn(step.rng, step.t)
 
     def _respawn(self, rng: np.random.Generator, t: int) -> None:
         waiting = []
-        for item in self._waiting:
+        for item in self.waiting:
             if item.respawn_at > t or not self._put_back(item, rng):
                 waiting.append(item)
-        self._waiting = waiting
+        self.waiting = waiting
 
     def _put_back(self, item: Item, rng: np.random.Generator) -> bool:
         if item.home is not None:

@@ -32,12 +32,10 @@ class Task:
         """``extra``: the scenario's own rules; the ending: see ``ending.EndingRule``."""
         self.world, self.bodies, self.hands = ctx.world, ctx.bodies, ctx.hands
         self.records = ctx.records
-        items = ItemRule()
+        items, doors = ItemRule(), DoorRule()
+        builtin: list[Rule] = [items, ZoneRule(), doors, DeliveryRule()]
         self.rules: list[Rule] = [
-            items,
-            ZoneRule(),
-            DoorRule(),
-            DeliveryRule(),
+            *builtin,
             *extra,
             EndingRule(items, shared_end, end_when_eaten),
         ]
@@ -45,13 +43,34 @@ class Task:
             rule.reset(ctx)
         self._counting = [r for r in self.rules if type(r).info is not Rule.info]
         """The rules that add counters to ``info``."""
+        self._items = items
+        self._quiet = not extra and not end_when_eaten and not doors.switched
+        """Whether a step in which nothing touched an item, door or key, entered a zone
+        or was delivered, and no item is due back, leaves every reward, termination and
+        record as it was (no rule of the scenario's own, no switched door, no ending on
+        items eaten): then ``evaluate`` skips the rules."""
+        self._own_counters = any(r not in builtin for r in self._counting)
+        self.revision = 0
+        """Bumped by every step that may have changed ``info`` (a reward, a termination, an
+        item taken, a delivery; every step when a rule of the scenario's own counts): the
+        batched env writes a world's counters again only when this moved."""
         self.steps = 0
 
     def evaluate(self, rng: np.random.Generator) -> tuple[list[float], list[bool]]:
         """Rewards and terminations of every agent for the step just simulated."""
         self.steps += 1
         n = len(self.bodies)
-        step = Step(self.world.log, self.records, [0.0] * n, [False] * n, rng, self.steps)
+        log = self.world.log
+        if self._quiet and not (
+            log.items
+            or log.entered
+            or log.doors
+            or log.keys
+            or log.deliveries
+            or self._items.waiting
+        ):
+            return [0.0] * n, [False] * n  # what the rules would give: nothing happened
+        step = Step(log, self.records, [0.0] * n, [False] * n, rng, self.steps)
         for rule in self.rules:
             rule.apply(step)
         rewards, terminated = step.rewards, step.terminated
@@ -65,6 +84,8 @@ class Task:
             if terminated[i]:
                 record.done = True
                 self._retire(self.bodies[i])
+        if self._own_counters or log.items or log.deliveries or any(rewards) or any(terminated):
+            self.revision += 1
         return rewards, terminated
 
     def _retire(self, body) -> None:

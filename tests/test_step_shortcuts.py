@@ -1,0 +1,101 @@
+"""The step's shortcuts give what the long way gives, number for number:
+
+- a task skips its rules in a step where nothing happened (``Task._quiet``): the same
+  trajectories as a task that runs every rule every step, on every scenario;
+- the batched env writes a world's counters only when its task's ``revision`` moved:
+  every slot's counters still equal its agent's ``info`` every step, items taken and all;
+- the batched env drives every body from the batch's array while every slot acts, for
+  continuous actions too: what separate envs play;
+- worlds of a fixed layout share the ray kernel's grid and eyes; generated layouts keep
+  their own.
+"""
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import data_equivalence
+
+import flatland_ma
+from flatland_ma.envs.vector import BatchedParallelEnv
+
+SCENARIOS = flatland_ma.list_scenarios()
+
+
+def _long_way(env) -> None:
+    env.running.task._quiet = False
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_a_quiet_step_gives_what_every_rule_gives(scenario):
+    short = flatland_ma.parallel_env(scenario, max_cycles=40)
+    long = flatland_ma.parallel_env(scenario, max_cycles=40)
+    rng = np.random.default_rng(3)
+    quiet = 0
+    for episode in range(2):
+        a, _ = short.reset(seed=11 + episode)
+        b, _ = long.reset(seed=11 + episode)
+        _long_way(long)
+        assert data_equivalence(a, b, exact=True)
+        while short.agents:
+            quiet += short.running.task._quiet
+            actions = {}
+            for agent in short.agents:
+                space = short.action_space(agent)
+                space.seed(int(rng.integers(1 << 30)))
+                actions[agent] = space.sample()
+            one, two = short.step(actions), long.step(actions)
+            assert data_equivalence(one, two, exact=True)
+        assert not long.agents
+    if scenario == "fruits_poisons":
+        assert quiet > 0  # the shortcut was there to take
+
+
+def test_counters_follow_the_agents_info_as_items_are_taken():
+    batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=2, max_cycles=150)
+    batch.reset(seed=5)
+    batch.single_action_space.seed(5)
+    m = batch.agents_per_world
+    taken = 0
+    for _ in range(400):
+        actions = np.array([batch.single_action_space.sample() for _ in range(batch.num_slots)])
+        _, _, _, _, infos = batch.step(actions)
+        for w, env in enumerate(batch.worlds):
+            task = env.running.task
+            for i in range(m):
+                if infos["active"][w * m + i] and task.steps:
+                    own = task.info(i)
+                    for key, value in own.items():
+                        assert infos[key][w * m + i] == value, (key, w, i)
+        taken = max(taken, int(infos["fruits"].max()))
+    assert taken > 0  # counters did move
+
+
+def test_continuous_actions_batched_play_what_separate_envs_play():
+    options = {"agent": {"actions": "continuous"}, "max_cycles": 15}
+    batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=2, **options)
+    envs = [flatland_ma.parallel_env("fruits_poisons_multi", **options) for _ in range(2)]
+    m = batch.agents_per_world
+    batch.reset(seed=8)
+    for w, env in enumerate(envs):
+        env.reset(seed=8 + w)
+    rng = np.random.default_rng(8)
+    for _ in range(14):  # within one episode: every slot acts every step
+        actions = rng.uniform(-1, 1, (batch.num_slots, 3)).astype(np.float32)
+        observations, rewards, *_ = batch.step(actions)
+        for w, env in enumerate(envs):
+            obs, rew, *_ = env.step({a: actions[w * m + j] for j, a in enumerate(env.agents)})
+            for j, agent in enumerate(env.possible_agents):
+                assert data_equivalence(observations[w * m + j], obs[agent], exact=True)
+                assert rewards[w * m + j] == rew[agent]
+
+
+def _grids(batch):
+    return {batch._rays.worlds[w][2].cell_full.ctypes.data for w in range(batch.num_worlds)}
+
+
+def test_fixed_layouts_share_the_kernels_grid_and_generated_ones_do_not():
+    fixed = BatchedParallelEnv("fruits_poisons", num_worlds=3)
+    fixed.reset(seed=0)
+    assert len(_grids(fixed)) == 1
+    drawn = BatchedParallelEnv("maze_goal", num_worlds=3)
+    drawn.reset(seed=0)
+    assert len(_grids(drawn)) == 3
