@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import operator
 from typing import Any
 
 import numba as nb
@@ -42,6 +43,7 @@ _TA, _TC, _TX, _TY = 17, 19, 21, 22
 """Where it keeps its transform's a, c, tx and ty (after t): pymunk's ``position`` (the
 body's origin) is ``a * 0 + c * 0 + tx``, ``b * 0 + d * 0 + ty``."""
 _WORDS = 23
+_TOUCHING = operator.attrgetter("touching")
 
 
 def address(body: pymunk.Body) -> int:
@@ -168,7 +170,7 @@ class Motors:
 
     def drive_all(self, commands: np.ndarray) -> None:
         """``drive`` of every slot, in slot order (each slot's body placed)."""
-        touching = np.fromiter((b.touching for b in self._keep), bool, self.slots)  # type: ignore[union-attr]
+        touching = np.fromiter(map(_TOUCHING, self._keep), bool, self.slots)
         self.drive(np.arange(self.slots), commands, touching)
 
 

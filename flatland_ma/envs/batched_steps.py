@@ -43,7 +43,11 @@ def checked_at_once(
     # Tuples: each env keeps its actions for pickling, and tuples of numbers are left out
     # of the garbage collector's scans (lists would make every step's add to them).
     return [
-        () if ended[w] else tuple([values[w * m + i] for i in env._live])
+        ()
+        if ended[w]
+        else tuple(values[w * m : (w + 1) * m])
+        if len(env._live) == m
+        else tuple([values[w * m + i] for i in env._live])
         for w, env in enumerate(worlds)
     ]
 

@@ -37,9 +37,11 @@ A step is array work over all worlds but for ``space.step`` (``batched_steps``):
 of actions is checked at once, every world's plain bodies are driven in one compiled call
 (``agents.motors``), each world simulates and applies its rules, every world's moving
 bodies' poses are read back in one call, the rays of every world are cast in one call of
-the compiled kernel, spread over numba's threads (``parallel=False``: on one), and each
-world's observations, rewards and counters are written as slices of the stacked arrays
-(its counters only after a step that may have moved them: ``Task.revision``).
+the compiled kernel, spread over numba's threads (``parallel=False``: on one), straight
+into the world's slots of the stacked observations while they are its cameras' rays as
+they are and every agent plays (else into its own image, then copied), and each world's
+rewards and counters are written as slices of the stacked arrays (its counters only after
+a step that may have moved them: ``Task.revision``).
 """
 
 from __future__ import annotations
@@ -196,6 +198,10 @@ class BatchedParallelEnv:
         self._whole_image = self.padding is None and render_mode is None
         """Whether a world's observations are its cameras' rays as they are, agent after
         agent (see ``whole_image``; with a render mode, sensors keep their readings)."""
+        self._written = [False] * num_worlds
+        """Worlds whose rays the kernel writes straight into their slots of the stacked
+        observations (``_whole_image``, while every agent of the world plays); the others
+        write their own image, copied by ``_observe``."""
         self._rays = WorldsKernel(num_worlds, parallel)
         """Every world's ray kernel arguments: one call casts the rays of all, over every
         core numba may use unless ``parallel`` is False."""
@@ -244,6 +250,9 @@ class BatchedParallelEnv:
                     continue
                 base = w * m
                 if len(env._live) < m:  # agents gone before this step are inert from now
+                    if self._written[w]:  # the rays go to the world's own image again
+                        self._rays.set(w, env.running.sensors)
+                        self._written[w] = False
                     for j in range(m):
                         if self._active[base + j] and j not in env._live:
                             self._active[base + j] = False
@@ -271,7 +280,8 @@ class BatchedParallelEnv:
                 # The world's live slots: a slice while every agent plays.
                 whole = len(live) == m
                 rows = slice(base, base + m) if whole else [base + i for i in live]
-                self._observe(env.running.sensors, base, live, rows)
+                if not (whole and self._written[w]):
+                    self._observe(env.running.sensors, base, live, rows)
                 self._rewards[rows] = rewards if whole else [rewards[i] for i in live]
                 self._terminations[rows] = terminated if whole else [terminated[i] for i in live]
                 self._truncations[rows] = truncated
@@ -357,10 +367,15 @@ class BatchedParallelEnv:
 
     def _restart(self, w: int, env: FlatlandParallelEnv, seed: int | None) -> None:
         observations, infos = env.reset(seed=seed)
-        self._rays.set(w, env.running.sensors)
         base = w * self.agents_per_world
         if w == 0:
             self._whole_image = self._whole_image and whole_image(env.running.sensors)
+        self._written[w] = self._whole_image
+        if self._whole_image:  # the rays write straight into the world's slots
+            slots = self._observations[base : base + self.agents_per_world]
+            self._rays.set(w, env.running.sensors, slots.reshape(-1, slots.shape[-1]))
+        else:
+            self._rays.set(w, env.running.sensors)
         if self._poses is not None:
             geometry = env.running.sensors.geometry
             self._poses.place(w, geometry.pose, geometry.bodies)

@@ -9,6 +9,8 @@ units, angles in radians.
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from typing import NamedTuple
 
@@ -206,7 +208,7 @@ def pack_scene(
         loose_seg=np.flatnonzero(~seg_fixed).astype(np.int32),
         loose_circ=np.flatnonzero(~circ_fixed).astype(np.int32),
     )
-    grid = bin_fixed_shapes(seg_local, seg_fixed, circ_local, circ_fixed, target_cells)
+    grid = fixed_grid(seg_local, seg_fixed, circ_local, circ_fixed, target_cells)
     texture_rows = np.array(textures, np.float64).reshape(-1, 4)
     looks = Looks(
         owner=np.array(owner, np.int32),
@@ -251,6 +253,37 @@ def pack_eyes(
         ray_dir=np.stack([np.cos(all_angles), np.sin(all_angles)], axis=1),
         fan=fan,
     )
+
+
+GRIDS_KEPT = 64
+"""Grids of fixed shapes kept for reuse: the layouts a process met last."""
+_GRIDS: OrderedDict[tuple, Grid] = OrderedDict()
+_GRIDS_LOCK = threading.Lock()
+
+
+def fixed_grid(seg_world, seg_fixed, circ_world, circ_fixed, target_cells: int = 1024) -> Grid:
+    """``bin_fixed_shapes``, the same ``Grid`` object again for the same fixed shapes (a
+    layout that is the same every episode, or in every world of a batch): binned once, and
+    read from one copy in the cache by every world's rays. Nobody writes a grid's arrays
+    (the kernel only reads them)."""
+    key = (
+        seg_world[seg_fixed].tobytes(),
+        np.flatnonzero(seg_fixed).tobytes(),
+        circ_world[circ_fixed].tobytes(),
+        np.flatnonzero(circ_fixed).tobytes(),
+        target_cells,
+    )
+    with _GRIDS_LOCK:  # envs in several threads share the cache
+        grid = _GRIDS.get(key)
+        if grid is not None:
+            _GRIDS.move_to_end(key)
+            return grid
+    grid = bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells)
+    with _GRIDS_LOCK:
+        grid = _GRIDS.setdefault(key, grid)
+        while len(_GRIDS) > GRIDS_KEPT:
+            _GRIDS.popitem(last=False)
+    return grid
 
 
 def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells: int = 1024):

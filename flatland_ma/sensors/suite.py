@@ -193,13 +193,18 @@ class WorldsKernel:
         self._common: list = []
         self._function: Callable | None = None
 
-    def set(self, w: int, suite: Sensors) -> None:
-        args = suite.kernel_args
+    def set(self, w: int, suite: Sensors, image: np.ndarray | None = None) -> None:
+        """World ``w``'s sensors from now on; ``image``: where its rays write their RGB
+        and depth instead of ``suite.image`` (an array of the same shape and type, e.g.
+        the world's rows of a batch's observations)."""
+        args = list(suite.kernel_args)
+        if image is not None:
+            assert image.shape == suite.image.shape and image.dtype == suite.image.dtype
+            args[5] = args[5]._replace(image=image)
         if self.worlds is None:
-            self.worlds = filled(args, self.n)
+            self.worlds = filled(tuple(args), self.n)
             self._common = [args[k] for k in SHARED]
             return
-        args = list(args)
         for k, common in zip(SHARED, self._common):
             if args[k] is not common and _equal(args[k], common):
                 args[k] = common
