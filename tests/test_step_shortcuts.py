@@ -99,3 +99,22 @@ def test_fixed_layouts_share_the_kernels_grid_and_generated_ones_do_not():
     drawn = BatchedParallelEnv("maze_goal", num_worlds=3)
     drawn.reset(seed=0)
     assert len(_grids(drawn)) == 3
+
+
+def test_the_grid_cache_gives_what_binning_gives_and_stays_bounded():
+    from flatland_ma.sensors import scene
+
+    env = flatland_ma.parallel_env("fruits_poisons")
+    env.reset(seed=0)
+    shapes = env.running.sensors.geometry.shapes
+    fixed_seg = np.ones(len(shapes.seg_local), bool)
+    fixed_seg[shapes.loose_seg] = False
+    fixed_circ = np.ones(len(shapes.circ_local), bool)
+    fixed_circ[shapes.loose_circ] = False
+    args = (shapes.seg_local, fixed_seg, shapes.circ_local, fixed_circ)
+    assert scene.fixed_grid(*args) is env.running.sensors.geometry.grid
+    assert data_equivalence(tuple(scene.fixed_grid(*args)), tuple(scene.bin_fixed_shapes(*args)))
+    maze = flatland_ma.parallel_env("maze_goal")
+    for seed in range(scene.GRIDS_KEPT + 6):
+        maze.reset(seed=seed)
+    assert len(scene._GRIDS) == scene.GRIDS_KEPT
