@@ -7,15 +7,20 @@
 - the batched env drives every body from the batch's array while every slot acts, for
   continuous actions too: what separate envs play;
 - worlds of a fixed layout share the ray kernel's grid and eyes; generated layouts keep
-  their own.
+  their own;
+- a world steps its space through Chipmunk directly when pymunk has nothing queued around
+  the step: the same trajectories as ``Space.step``, and what callbacks queue during the
+  step is done after it as pymunk does.
 """
 
 import numpy as np
+import pymunk
 import pytest
 from gymnasium.utils.env_checker import data_equivalence
 
 import flatland_ma
 from flatland_ma.envs.vector import BatchedParallelEnv
+from flatland_ma.world import world as world_module
 
 SCENARIOS = flatland_ma.list_scenarios()
 
@@ -118,3 +123,56 @@ def test_the_grid_cache_gives_what_binning_gives_and_stays_bounded():
     for seed in range(scene.GRIDS_KEPT + 6):
         maze.reset(seed=seed)
     assert len(scene._GRIDS) == scene.GRIDS_KEPT
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_the_direct_space_step_gives_what_pymunks_step_gives(scenario, monkeypatch):
+    assert world_module.FAST_STEP  # pymunk 7, as pyproject asks: the shortcut is taken
+    fast = flatland_ma.parallel_env(scenario, max_cycles=30)
+    slow = flatland_ma.parallel_env(scenario, max_cycles=30)
+    a, _ = fast.reset(seed=2)
+    b, _ = slow.reset(seed=2)
+    rng = np.random.default_rng(2)
+    while fast.agents:
+        actions = {}
+        for agent in fast.agents:
+            space = fast.action_space(agent)
+            space.seed(int(rng.integers(1 << 30)))
+            actions[agent] = space.sample()
+        monkeypatch.setattr(world_module, "FAST_STEP", True)
+        one = fast.step(actions)
+        monkeypatch.setattr(world_module, "FAST_STEP", False)
+        two = slow.step(actions)
+        assert data_equivalence(one, two, exact=True)
+        np.testing.assert_array_equal(fast.state(), slow.state())
+
+
+def _colliding_pair():
+    space = pymunk.Space()
+    shapes = []
+    for x in (0.0, 1.5):
+        body = pymunk.Body(1.0, 1.0)
+        body.position = (x, 0.0)
+        shape = pymunk.Circle(body, 1.0)
+        shape.collision_type = 1
+        space.add(body, shape)
+        shapes.append(shape)
+    ran = []
+
+    def begin(arbiter, space, data):
+        space.remove(shapes[1])  # queued: the space is locked during the step
+        space.add_post_step_callback(lambda s, key: ran.append(len(s.shapes)), "after")
+
+    space.on_collision(1, 1, begin=begin)
+    return space, ran
+
+
+def test_what_callbacks_queue_during_a_direct_step_is_done_after_it():
+    fast, fast_ran = _colliding_pair()
+    slow, slow_ran = _colliding_pair()
+    world_module._step_space(fast, 1e-3)
+    slow.step(1e-3)
+    assert slow_ran == [1] and len(slow.shapes) == 1  # the pair met in the step
+    assert fast_ran == slow_ran and len(fast.shapes) == len(slow.shapes)
+    assert not (fast._add_later or fast._remove_later or fast._post_step_callbacks)
+    assert [b.position for b in fast.bodies] == [b.position for b in slow.bodies]
