@@ -76,14 +76,13 @@ def drive(
 ) -> None:
     """Command the body of every live agent of the worlds ``stepped`` ((world, env)
     pairs) in one call (``motors.Motors``: the numbers ``Actuator.apply`` would give).
-    ``whole``: the batch's array of actions when ``checked_at_once`` took it; while every
-    slot acts (every world stepped, every agent live), the commands come from it in one
-    go, else slot by slot from ``checked``."""
+    ``whole``: the batch's array of actions, checked at once, when every slot acts (every
+    world stepped, every agent live): then the commands come from it in one go, else slot
+    by slot from ``checked``."""
+    if whole is not None:
+        motors.drive_all(actuator.base_commands_of(whole))
+        return
     m = len(stepped[0][1].possible_agents) if stepped else 0
-    if whole is not None and len(stepped) * m == motors.slots:
-        if all(len(env._live) == m for _, env in stepped):
-            motors.drive_all(actuator.base_commands_of(whole))
-            return
     slots, bodies, actions = [], [], []
     for w, env in stepped:
         own = env.running.bodies

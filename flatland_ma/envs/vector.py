@@ -243,13 +243,16 @@ class BatchedParallelEnv:
         self._truncations[:] = False
         advanced, entered, stepped = [], [], []
         finals: dict[int, tuple] = {}
+        every_slot = at_once is not None  # acts, from the batch's array
         try:
             for w, env in enumerate(self.worlds):
                 if self._ended[w]:  # NEXT_STEP: reset instead (DISABLED: refused in _check)
                     self._restart(w, env, None)
+                    every_slot = False
                     continue
                 base = w * m
                 if len(env._live) < m:  # agents gone before this step are inert from now
+                    every_slot = False
                     if self._written[w]:  # the rays go to the world's own image again
                         self._rays.set(w, env.running.sensors)
                         self._written[w] = False
@@ -265,7 +268,7 @@ class BatchedParallelEnv:
             motors = self._motors
             acted = motors is not None
             if motors is not None:
-                drive(motors, self._actuator, stepped, checked, at_once)
+                drive(motors, self._actuator, stepped, checked, at_once if every_slot else None)
             poses = self._poses is None
             for w, env in stepped:
                 advanced.append((w, env, *env._advance(checked[w], False, acted, poses)))

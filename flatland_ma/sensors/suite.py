@@ -163,11 +163,13 @@ def _observe_worlds_serial(worlds, which):
         kernel.observe(a[0], a[1], a[2], a[3], a[4], a[5], a[6])
 
 
-SHARED = (2, 4)
-"""The kernel's arguments that it only reads, and that every world of a fixed layout has
-alike: the grid of fixed shapes and the eyes. Worlds whose own are equal to the first
-world's are given the first world's, so the kernel reads one copy from the cache instead
-of one per world (at 256 worlds of ``fruits_poisons_multi``, 15 of their 29 KiB)."""
+SHARED = (4,)
+"""The kernel's arguments that it only reads and that every world of a scenario has
+alike, packed anew each episode: the eyes. Worlds whose own are equal to the first world's
+are given the first world's, so the kernel reads one copy from the cache instead of one
+per world. (The grid of fixed shapes is shared at its source: ``scene.fixed_grid`` gives
+every world of a layout the same one; together, 15 of a world's 29 KiB at 256 worlds of
+``fruits_poisons_multi``.)"""
 
 
 def _equal(a: tuple, b: tuple) -> bool:
