@@ -65,3 +65,26 @@ def test_rollouts_match_across_processes(scenario):
         digests.add(out.stdout.strip())
     digests.add(rollout_digest(scenario, seed=9, steps=700))
     assert len(digests) == 1
+
+
+@pytest.mark.parametrize("area", [None, (60.0, 40.0, 150.0, 120.0)])
+def test_a_place_is_drawn_as_a_cell_then_two_uniform_numbers_in_it(area):
+    """What ``Placer.sample`` draws from the generator, written out with numpy's
+    ``uniform``: a reset or a respawn that drew it otherwise would move every item."""
+    from flatland_ma.build.builder import lay_ground
+    from flatland_ma.scenario.loader import load_scenario
+
+    placer = lay_ground(load_scenario("fruits_poisons"), np.random.default_rng(0)).placer
+    cells, side = placer.candidates(area), placer.grid.cell
+    drawn, reference = np.random.default_rng(5), np.random.default_rng(5)
+    for _ in range(200):
+        x, y = placer.sample(drawn, 1.0, area)
+        while True:  # the reference: cell, then x, then y; again while the disc is not free
+            i, j = cells[reference.integers(len(cells))]
+            rx, ry = (j + reference.uniform(0.0, 1.0)) * side, (i + reference.uniform()) * side
+            if area is not None:
+                rx, ry = min(max(rx, area[0]), area[2]), min(max(ry, area[1]), area[3])
+            if placer.world.is_free(rx, ry, 2.0):
+                break
+        assert (x, y) == (rx, ry)
+    assert drawn.random() == reference.random()  # as many draws taken

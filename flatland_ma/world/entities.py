@@ -9,6 +9,7 @@ opens it); the engine never tests what kind an entity is.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from enum import IntEnum, IntFlag
 
@@ -42,6 +43,7 @@ class Category(IntFlag):
     EVERYTHING = 0xFFFFFFFF
 
 
+@functools.cache  # a filter is an immutable named tuple: one per kind serves every shape
 def shape_filter(category: Category, ignores: int = 0) -> pymunk.ShapeFilter:
     """Shapes of ``category`` that collide with everything but the ``ignores`` categories."""
     return pymunk.ShapeFilter(categories=category, mask=Category.EVERYTHING & ~ignores)

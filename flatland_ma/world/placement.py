@@ -98,13 +98,15 @@ class Placer:
         cells = self.candidates(area)
         if len(cells) == 0:
             raise PlacementError("no free place in the area that agents can reach")
-        cell = self.grid.cell
+        cell, n = self.grid.cell, len(cells)
         for _ in range(MAX_TRIES):
             if self.budget is not None:
                 self.budget.draw()
-            i, j = cells[rng.integers(len(cells))]
-            x = (j + rng.uniform()) * cell
-            y = (i + rng.uniform()) * cell
+            i, j = cells[rng.integers(n)]
+            # random() is uniform()'s draw without its argument handling: uniform(0, 1)
+            # returns 0 + 1 * random(), the same double from the same state
+            x = (j + rng.random()) * cell
+            y = (i + rng.random()) * cell
             if area is not None:
                 x = min(max(x, area[0]), area[2])
                 y = min(max(y, area[1]), area[3])
