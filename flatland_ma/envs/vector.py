@@ -55,26 +55,12 @@ from gymnasium.vector.utils import batch_space
 
 from flatland_ma.agents.motors import FIELDS_FOUND, Motors, Poses
 from flatland_ma.envs.batched_steps import checked_at_once, checked_by_slot, drive, whole_image
-from flatland_ma.envs.buffers import (
-    clear,
-    copied,
-    counter_array,
-    put,
-    put_column,
-    stacked,
-    world_seeds,
-)
+from flatland_ma.envs.buffers import clear, put_column, world_seeds
 from flatland_ma.envs.flatten import FlatLayout, FlatPart
 from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
-from flatland_ma.envs.padding import Padding
 from flatland_ma.envs.parallel import FlatlandParallelEnv
-from flatland_ma.envs.resets import (
-    autoreset_mode_of,
-    final_infos,
-    flatten_into,
-    reset_mask_of,
-    slot_of,
-)
+from flatland_ma.envs.resets import autoreset_mode_of, final_infos, reset_mask_of
+from flatland_ma.envs.slots import SlotBuffers, slot_spaces
 from flatland_ma.scenario.budget import check_batch
 from flatland_ma.sensors.suite import Sensors, WorldsKernel
 
@@ -140,47 +126,20 @@ class BatchedParallelEnv:
         """The agents of each world, in slot order."""
         self.agents_per_world = len(first.possible_agents)
         self.num_slots = num_worlds * self.agents_per_world
-        self.copy = copy
-        agents = first.possible_agents
-        self.padding = Padding.of(first) if pad else None
+        self.copy = copy  # as given (the slots' arrays are handed out copied or not)
+        spaces = slot_spaces(first, pad, flatten)
+        self.padding = spaces.padding
         """How observations are padded to one space, or None (see ``pad``)."""
-        own = first.observation_space(agents[0]) if self.padding is None else self.padding.space
-        self._flat = FlatLayout(own) if flatten else None
-        """How a slot's observation lies in its flat vector, with ``flatten``."""
-        self.single_observation_space = own if self._flat is None else self._flat.space
-        self.single_action_space = first.action_space(agents[0])
-        for agent in agents[1:]:
-            observes = str(first.observation_space(agent)) == str(
-                first.observation_space(agents[0])
-            )
-            if (
-                not (observes or self.padding)
-                or first.action_space(agent) != self.single_action_space
-            ):
-                raise ValueError(
-                    f"{agent} observes {first.observation_space(agent)} and acts in "
-                    f"{first.action_space(agent)}, {agents[0]} observes "
-                    f"{first.observation_space(agents[0])} and acts in "
-                    f"{self.single_action_space}: a batch's slots share one space (one "
-                    "policy); pad=True pads observations that differ (actions must agree), "
-                    "SuperSuit pads both (docs/integrations.md)"
-                )
+        self._flat = spaces.flat
+        self.single_observation_space = spaces.observation
+        self.single_action_space = spaces.action
         self.single_state_space = first.state_space
         """One world's global state space (``FlatlandParallelEnv.state``)."""
         self.state_space = batch_space(first.state_space, num_worlds)
         self.observation_space = batch_space(self.single_observation_space, self.num_slots)
         self.action_space = batch_space(self.single_action_space, self.num_slots)
-        self._observations = stacked(own, self.num_slots)
-        self._flat_observations = (
-            None
-            if self._flat is None
-            else np.zeros((self.num_slots, *self._flat.space.shape), np.float32)
-        )
-        self._rewards = np.zeros(self.num_slots, np.float64)
-        self._terminations = np.zeros(self.num_slots, bool)
-        self._truncations = np.zeros(self.num_slots, bool)
-        self._active = np.zeros(self.num_slots, bool)
-        self._counters: dict[str, np.ndarray] = {}
+        self._slots = SlotBuffers(spaces, self.num_slots, copy)
+        """The stacked arrays handed out, one row per slot."""
         self._ended = [False] * num_worlds
         """Worlds whose episode ended on the last step: the next step resets them."""
         self._revisions = [-1] * num_worlds
@@ -220,11 +179,11 @@ class BatchedParallelEnv:
         m = self.agents_per_world
         for w, env in enumerate(self.worlds):
             if mask is None or mask[w]:
-                self._rewards[w * m : (w + 1) * m] = 0.0
-                self._terminations[w * m : (w + 1) * m] = False
-                self._truncations[w * m : (w + 1) * m] = False
+                self._slots.rewards[w * m : (w + 1) * m] = 0.0
+                self._slots.terminations[w * m : (w + 1) * m] = False
+                self._slots.truncations[w * m : (w + 1) * m] = False
                 self._restart(w, env, seeds[w])
-        return self._observed(), self._infos()
+        return self._slots.observed(), self._slots.infos()
 
     def step(self, actions):
         """One step of every world; ``actions[slot]`` for each slot (those of inert slots
@@ -237,10 +196,10 @@ class BatchedParallelEnv:
 
     def _step(self, actions):
         checked, at_once = self._check(actions)
-        m = self.agents_per_world
-        self._rewards[:] = 0.0
-        self._terminations[:] = False
-        self._truncations[:] = False
+        m, slots = self.agents_per_world, self._slots
+        slots.rewards[:] = 0.0
+        slots.terminations[:] = False
+        slots.truncations[:] = False
         advanced, entered, stepped = [], [], []
         finals: dict[int, tuple] = {}
         every_slot = at_once is not None  # acts, from the batch's array
@@ -257,9 +216,9 @@ class BatchedParallelEnv:
                         self._rays.set(w, env.running.sensors)
                         self._written[w] = False
                     for j in range(m):
-                        if self._active[base + j] and j not in env._live:
-                            self._active[base + j] = False
-                            clear(self._observations, base + j)
+                        if slots.active[base + j] and j not in env._live:
+                            slots.active[base + j] = False
+                            clear(slots.observations, base + j)
                 env.enter()
                 entered.append(env)
                 stepped.append((w, env))
@@ -285,17 +244,17 @@ class BatchedParallelEnv:
                 rows = slice(base, base + m) if whole else [base + i for i in live]
                 if not (whole and self._written[w]):
                     self._observe(env.running.sensors, base, live, rows)
-                self._rewards[rows] = rewards if whole else [rewards[i] for i in live]
-                self._terminations[rows] = terminated if whole else [terminated[i] for i in live]
-                self._truncations[rows] = truncated
+                slots.rewards[rows] = rewards if whole else [rewards[i] for i in live]
+                slots.terminations[rows] = terminated if whole else [terminated[i] for i in live]
+                slots.truncations[rows] = truncated
                 if task.revision != self._revisions[w]:  # the counters may have moved
                     self._revisions[w] = task.revision
                     for key, values in task.columns(live).items():
-                        put_column(self._counter(key, values[0]), rows, base, live, values)
+                        put_column(slots.counter(key, values[0]), rows, base, live, values)
                 if same_step:
                     for i in live:
                         if terminated[i] or truncated:
-                            finals[base + i] = (self._seen(base + i), task.info(i))
+                            finals[base + i] = (slots.seen(base + i), task.info(i))
                 self._ended[w] = not env.agents
         finally:
             for env in entered:
@@ -304,13 +263,13 @@ class BatchedParallelEnv:
             for w, env, *_ in advanced:
                 if self._ended[w]:
                     self._restart(w, env, None)
-        infos = self._infos()
-        infos.update(final_infos(finals, self._counters, self.num_slots))
+        infos = slots.infos()
+        infos.update(final_infos(finals, slots.counters, self.num_slots))
         return (
-            self._observed(),
-            self._out(self._rewards),
-            self._out(self._terminations),
-            self._out(self._truncations),
+            slots.observed(),
+            slots.out(slots.rewards),
+            slots.out(slots.terminations),
+            slots.out(slots.truncations),
             infos,
         )
 
@@ -375,7 +334,7 @@ class BatchedParallelEnv:
             self._whole_image = self._whole_image and whole_image(env.running.sensors)
         self._written[w] = self._whole_image
         if self._whole_image:  # the rays write straight into the world's slots
-            slots = self._observations[base : base + self.agents_per_world]
+            slots = self._slots.observations[base : base + self.agents_per_world]
             self._rays.set(w, env.running.sensors, slots.reshape(-1, slots.shape[-1]))
         else:
             self._rays.set(w, env.running.sensors)
@@ -390,10 +349,10 @@ class BatchedParallelEnv:
                 self._motors.place(base + j, body)
         for j, agent in enumerate(env.possible_agents):
             if self.padding is not None:  # inert slots were zeroed: name the role again
-                self.padding.mark(self._observations, j, base + j)
-            self._put(base + j, j, observations[agent])
-            self._active[base + j] = True
-            self._count(base + j, infos[agent])
+                self.padding.mark(self._slots.observations, j, base + j)
+            self._slots.put(base + j, j, observations[agent])
+            self._slots.active[base + j] = True
+            self._slots.count(base + j, infos[agent])
         self._revisions[w] = env.running.task.revision
         self._ended[w] = False
 
@@ -403,16 +362,10 @@ class BatchedParallelEnv:
         of the cameras' rays (``_whole_image``), in one copy, else agent by agent."""
         if self._whole_image:
             image = sensors.image.reshape(self.agents_per_world, -1, sensors.image.shape[1])
-            self._observations[rows] = image if len(live) == len(image) else image[live]
+            self._slots.observations[rows] = image if len(live) == len(image) else image[live]
             return
         for i in live:
-            self._put(base + i, i, sensors.observation(i))
-
-    def _put(self, slot: int, agent: int, observation) -> None:
-        if self.padding is None:
-            put(self._observations, slot, observation)
-        else:
-            self.padding.put(self._observations, agent, observation, slot)
+            self._slots.put(base + i, i, sensors.observation(i))
 
     def _check(self, actions) -> tuple[list[list], np.ndarray | None]:
         """Each live agent's action, checked, world by world, and ``actions`` itself
@@ -431,38 +384,6 @@ class BatchedParallelEnv:
         if fast is None:
             return checked_by_slot(actions, self.worlds, self._ended, m), None
         return fast, actions
-
-    def _count(self, slot: int, info: dict) -> None:
-        for key, value in info.items():
-            self._counter(key, value)[slot] = value
-
-    def _counter(self, key: str, value) -> np.ndarray:
-        """The array of the info entry ``key`` (made to hold values like ``value``)."""
-        counter = self._counters.get(key)
-        if counter is None:
-            counter = self._counters[key] = counter_array(value, self.num_slots)
-        return counter
-
-    def _infos(self) -> dict:
-        infos = {key: self._out(values) for key, values in self._counters.items()}
-        infos["active"] = self._out(self._active)
-        return infos
-
-    def _out(self, buffer):
-        return copied(buffer) if self.copy else buffer
-
-    def _observed(self):
-        """The observations handed out: the stacked buffers, or their flat vectors."""
-        if self._flat is None:
-            return self._out(self._observations)
-        assert self._flat_observations is not None
-        flatten_into(self._flat, self._observations, self._flat_observations)
-        return self._out(self._flat_observations)
-
-    def _seen(self, slot: int):
-        """A copy of one slot's current observation as handed out (flat with flatten)."""
-        observation = slot_of(self._observations, slot)
-        return observation if self._flat is None else self._flat.flatten(observation)
 
 
 def _same(first: FlatlandParallelEnv) -> FlatlandParallelEnv:
