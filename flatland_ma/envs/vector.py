@@ -283,6 +283,12 @@ class BatchedParallelEnv:
                 out[[w * m + i for i in env._live]] = True
         return out
 
+    @property
+    def active(self) -> np.ndarray:
+        """Which slots hold an agent still playing (``infos["active"]`` of the last step or
+        reset); the env's own array, not a copy."""
+        return self._slots.active
+
     def render(self) -> tuple | None:
         """With ``render_mode="rgb_array"``: every world's frame, in world order (a tuple,
         as Gymnasium's ``SyncVectorEnv`` gives); None without a render mode."""

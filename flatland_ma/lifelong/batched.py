@@ -281,7 +281,7 @@ class StreamBatchedEnv:
         for w, policies in enumerate(self._backgrounds):
             for agent, policy in policies.items():
                 slot = w * m + env.possible_agents.index(agent)
-                if not env._active[slot]:
+                if not env.active[slot]:
                     continue
                 if isinstance(observations, dict):
                     seen = {key: value[slot] for key, value in observations.items()}
