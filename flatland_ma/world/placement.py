@@ -102,11 +102,12 @@ class Placer:
         for _ in range(MAX_TRIES):
             if self.budget is not None:
                 self.budget.draw()
-            i, j = cells[rng.integers(n)]
-            # random() is uniform()'s draw without its argument handling: uniform(0, 1)
-            # returns 0 + 1 * random(), the same double from the same state
-            x = (j + rng.random()) * cell
-            y = (i + rng.random()) * cell
+            k = rng.integers(n)
+            # Python numbers throughout (numpy's scalar arithmetic costs about a
+            # microsecond an operation), with the same doubles: random() is uniform()'s
+            # draw without its argument handling (uniform(0, 1) is 0 + 1 * random()).
+            x = (cells.item(k, 1) + rng.random()) * cell
+            y = (cells.item(k, 0) + rng.random()) * cell
             if area is not None:
                 x = min(max(x, area[0]), area[2])
                 y = min(max(y, area[1]), area[3])
