@@ -18,7 +18,7 @@ from pettingzoo.test import api_test, parallel_api_test, seed_test
 
 import flatland_ma
 from flatland_ma.envs.flatten import WHOLE, FlatLayout, FlattenObservations
-from flatland_ma.envs.parallel import RENDER_MODES, available_render_modes
+from flatland_ma.envs.render_modes import RENDER_MODES, available_render_modes
 from flatland_ma.evaluation.runner import focal_agents
 from flatland_ma.integrations.discrete import DiscreteActions, discrete_aec_env
 

@@ -6,7 +6,8 @@ from collections.abc import Mapping
 
 import gymnasium
 
-from flatland_ma.envs.parallel import RENDER_MODES, FlatlandParallelEnv
+from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.envs.render_modes import RENDER_MODES
 
 
 class FlatlandGymEnv(gymnasium.Env):

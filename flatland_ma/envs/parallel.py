@@ -28,7 +28,6 @@ the original would (pymunk's own pickles lose cached contact impulses and drift)
 
 from __future__ import annotations
 
-import importlib.util
 import threading
 from collections.abc import Mapping
 from pathlib import Path
@@ -44,27 +43,10 @@ from flatland_ma.build.builder import Episode, build
 from flatland_ma.build.census import state_entities, world_state
 from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.envs.flatten import FlatLayout, FlatPart
+from flatland_ma.envs.render_modes import KNOWN_RENDER_MODES, RENDER_MODES
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.suite import observation_space
-
-
-def available_render_modes() -> list[str]:
-    """The render modes this install can do: ``rgb_array`` always, ``human`` when pygame
-    can be imported (``pip install "flatland-ma[render]"``)."""
-    try:
-        pygame = importlib.util.find_spec("pygame")
-    except (ImportError, ValueError):  # pygame set to None in sys.modules, or half-installed
-        pygame = None
-    return (["human"] if pygame is not None else []) + ["rgb_array"]
-
-
-KNOWN_RENDER_MODES = ("human", "rgb_array")
-"""The render modes the code has. An env accepts each (PettingZoo's ``render_test``
-builds one with ``human`` only to read its metadata); without pygame, ``render()`` in
-``human`` mode raises ``ImportError`` naming the extra to install."""
-RENDER_MODES = available_render_modes()
-"""The render modes of every env of this install (``metadata["render_modes"]``)."""
 
 
 class FlatlandParallelEnv(ParallelEnv):

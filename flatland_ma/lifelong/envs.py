@@ -39,7 +39,8 @@ from pettingzoo import ParallelEnv
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from flatland_ma.build.census import world_state
-from flatland_ma.envs.parallel import RENDER_MODES, FlatlandParallelEnv
+from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.envs.render_modes import RENDER_MODES
 from flatland_ma.lifelong.drift import Drift
 from flatland_ma.lifelong.streams import Stream, load_stream
 
