@@ -8,6 +8,7 @@ before the clock starts.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import gymnasium
@@ -106,6 +107,67 @@ def bench_batched(scenario: str, steps: int, seed: int = 0) -> BenchResult:
     batch.close()
     label = f"batched {scenario} x {BATCH_WORLDS} worlds"
     return BenchResult(label, batch.agents_per_world, rate, bare)
+
+
+class BarePhysics:
+    """``space.step`` alone on ``env``'s world (after a reset and a few steps, so that the
+    bodies move and touch as they do in play), timed in slices: ``run(seconds)`` steps it
+    for about that long, ``rate`` is env-step equivalents (x substeps) per second over
+    every slice so far. Run between the slices of a row's own timing (``interleaved``), it
+    gives a bare rate from the same stretch of the run, so that the machine's drift moves
+    both rates alike."""
+
+    CHUNK = 50
+    """Env-step equivalents between two reads of the clock."""
+
+    def __init__(self, env: FlatlandParallelEnv):
+        env.reset(seed=1)
+        for _ in range(20):
+            env.step({a: env.action_space(a).sample() for a in env.agents})
+        world = env.running.world
+        self._space, self._dt, self._substeps = world.space, world.substep_dt, world.substeps
+        self.steps, self.seconds = 0, 0.0
+
+    def run(self, seconds: float) -> None:
+        space, dt, substeps = self._space, self._dt, self._substeps * self.CHUNK
+        start = time.perf_counter()
+        while True:
+            for _ in range(substeps):
+                space.step(dt)
+            self.steps += self.CHUNK
+            elapsed = time.perf_counter() - start
+            if elapsed >= seconds:
+                break
+        self.seconds += elapsed
+
+    @property
+    def rate(self) -> float:
+        return self.steps / self.seconds if self.seconds else 0.0
+
+
+SLICES = 6
+"""Slices a row's timing is cut into, with the bare physics run after each."""
+BARE_SHARE = 0.25
+"""The bare physics' time after each slice, as a share of the slice's."""
+
+
+def interleaved(
+    step: Callable[[int], None], seconds: float, bare: BarePhysics | None = None
+) -> float:
+    """Calls per second of ``step(k)`` (k counts the calls) over about ``seconds`` of its
+    own time, at least 3 calls; the time is cut into ``SLICES`` slices, each followed by
+    ``bare`` for ``BARE_SHARE`` of it (when given)."""
+    calls, spent = 0, 0.0
+    for k in range(SLICES):
+        start, until = time.perf_counter(), seconds / SLICES
+        while calls < 3 * (k + 1) // SLICES or time.perf_counter() - start < until:
+            step(calls)
+            calls += 1
+        elapsed = time.perf_counter() - start
+        spent += elapsed
+        if bare is not None:
+            bare.run(BARE_SHARE * elapsed)
+    return calls / spent
 
 
 def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:

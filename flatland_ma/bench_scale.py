@@ -3,9 +3,11 @@ every core, each beside the bare physics of the same worlds; and PPO end to end.
 
 ``flatland-ma bench --scale`` prints the table. A row steps the worlds with random actions
 drawn before the clock starts, for about ``seconds`` after a warm-up step (worlds reset
-themselves as their episodes end). The bare rate is ``space.step`` alone on one of the
-row's worlds (x its substeps), times the row's processes: what the physics of those worlds
-would cost if nothing else ran.
+themselves as their episodes end). The bare rate is ``space.step`` alone on a world of
+the row's scenario (x its substeps), times the row's processes: what the physics of those
+worlds would cost if nothing else ran. It is timed in slices between slices of the row's
+own timing (``bench.interleaved``), so that both rates come from the same stretch of the
+run.
 """
 
 from __future__ import annotations
@@ -15,13 +17,12 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from flatland_ma.bench import BenchResult, bare_space_rate
+from flatland_ma.bench import BarePhysics, BenchResult, interleaved
 from flatland_ma.bench_load import Load, LoadMeter
 from flatland_ma.bench_targets import RayRate, bench_busy_core, bench_make_vec, bench_rays
 
@@ -41,42 +42,39 @@ def bench_worlds(
 ) -> BenchResult:
     """World steps per second of ``worlds`` worlds in one batched env (``processes`` 1)
     or sharded over ``processes`` processes; ``overrides`` as for the envs."""
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.envs.shards import ShardedParallelEnv
     from flatland_ma.envs.vector import BatchedParallelEnv
 
+    bare = BarePhysics(FlatlandParallelEnv(scenario, **overrides))
     if processes == 1:
         env = BatchedParallelEnv(scenario, num_worlds=worlds, copy=False, **overrides)
     else:
         env = ShardedParallelEnv(scenario, worlds, shards=processes, copy=False, **overrides)
     try:
-        rate, load = timed_steps(env, worlds, seconds)
+        rate, load = timed_steps(env, worlds, seconds, bare)
         processes, agents = getattr(env, "num_shards", 1), env.agents_per_world
         threads = f"{processes} x 1" if processes > 1 else _kernel_threads(env)
     finally:
         env.close()
-    from flatland_ma.envs.parallel import FlatlandParallelEnv
-
-    bare = bare_space_rate(FlatlandParallelEnv(scenario, **overrides), 2000) * processes
     where = "1 process" if processes == 1 else f"{processes} processes"
     label = f"batched {scenario} x {worlds}, {where}"
-    return BenchResult(label, agents, rate, bare, threads, load)
+    return BenchResult(label, agents, rate, bare.rate * processes, threads, load)
 
 
-def timed_steps(env, worlds: int, seconds: float) -> tuple[float, Load]:
+def timed_steps(
+    env, worlds: int, seconds: float, bare: BarePhysics | None = None
+) -> tuple[float, Load]:
     """World steps per second of a batched (or sharded) env of ``worlds`` worlds stepped
     with random actions for ``seconds`` (at least 3 steps, after a reset and one untimed
-    step), and what other processes did meanwhile."""
+    step; ``bare`` timed between its slices), and what other processes did meanwhile."""
     env.reset(seed=0)
     env.action_space.seed(0)
     actions = [env.action_space.sample() for _ in range(16)]
     env.step(actions[0])  # warm-up
     meter = LoadMeter(cores())
     meter.start()
-    rounds, start = 0, time.perf_counter()
-    while rounds < 3 or time.perf_counter() - start < seconds:
-        env.step(actions[rounds % len(actions)])
-        rounds += 1
-    rate = rounds * worlds / (time.perf_counter() - start)
+    rate = interleaved(lambda k: env.step(actions[k % len(actions)]), seconds, bare) * worlds
     return rate, meter.stop()
 
 
@@ -182,8 +180,9 @@ def format_table(
             f"{r.load.note() if r.load else ''}"
         )
     lines.append(
-        "bare physics/s: world-step equivalents of space.step alone on the same worlds, "
-        "on as many cores as the row's processes. cost / bare: time per world-step over the "
+        "bare physics/s: world-step equivalents of space.step alone on a world of the "
+        "row's scenario, times the row's processes, timed in slices between the row's own "
+        "(the same stretch of the run). cost / bare: time per world-step over the "
         "bare physics' time. threads: processes x threads each (the ray kernel uses all "
         "of its threads or one, whichever is faster under the load). machine: cores that "
         "other processes kept busy during the row; BUSY rows were taken while other work "

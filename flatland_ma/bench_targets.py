@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flatland_ma.bench import BenchResult, bare_space_rate
+from flatland_ma.bench import BarePhysics, BenchResult, interleaved
 from flatland_ma.bench_load import LoadMeter
 from flatland_ma.sensors.threads import usable_cpus
 
@@ -27,14 +27,11 @@ SCENARIO = "fruits_poisons"
 MULTI = "fruits_poisons_multi"
 
 
-def _rate(step, actions: list, seconds: float) -> float:
-    """Calls of ``step`` per second, cycling through ``actions``, after one warm-up call."""
+def _rate(step, actions: list, seconds: float, bare: BarePhysics | None = None) -> float:
+    """Calls of ``step`` per second, cycling through ``actions``, after one warm-up call
+    (``bare`` timed between slices of it)."""
     step(actions[0])
-    rounds, start = 0, time.perf_counter()
-    while rounds < 3 or time.perf_counter() - start < seconds:
-        step(actions[rounds % len(actions)])
-        rounds += 1
-    return rounds / (time.perf_counter() - start)
+    return interleaved(lambda k: step(actions[k % len(actions)]), seconds, bare)
 
 
 def bench_make_vec(worlds: int, seconds: float) -> list[BenchResult]:
@@ -45,21 +42,23 @@ def bench_make_vec(worlds: int, seconds: float) -> list[BenchResult]:
     from flatland_ma.registration import gym_id
 
     name = gym_id(SCENARIO)
-    bare = bare_space_rate(FlatlandParallelEnv(SCENARIO), 2000)
     rows = []
     for label, n in ((f"make_vec {name} x {worlds}", worlds), (f"make {name}", 0)):
         env = gymnasium.make_vec(name, num_envs=n) if n else gymnasium.make(name)
+        bare = BarePhysics(FlatlandParallelEnv(SCENARIO))
         meter = LoadMeter(usable_cpus())
         try:
             env.reset(seed=0)
             env.action_space.seed(0)
             actions = [env.action_space.sample() for _ in range(16)]
             meter.start()
-            rate = _rate(env.step if n else _restarting(env), actions, seconds) * max(1, n)
+            step = env.step if n else _restarting(env)
+            rate = _rate(step, actions, seconds, bare) * max(1, n)
             load = meter.stop()
         finally:
             env.close()
-        rows.append(BenchResult(label, 1, rate, bare, "1 x 1" if not n else "1 x all", load))
+        threads = "1 x 1" if not n else "1 x all"
+        rows.append(BenchResult(label, 1, rate, bare.rate, threads, load))
     return rows
 
 

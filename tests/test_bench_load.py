@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import os
 
+import pytest
+
 from flatland_ma import bench_load
 from flatland_ma.bench_load import BUSY_CORES, Load, LoadMeter
 
@@ -55,3 +57,45 @@ def test_without_proc_only_the_load_average_is_known(tmp_path, monkeypatch):
     meter.start()
     load = meter.stop()
     assert load.other_cores is None and load.load_average >= 0
+
+
+def test_the_bare_physics_runs_after_every_slice_for_its_share_of_it(monkeypatch):
+    from flatland_ma import bench
+
+    now = [0.0]  # a made-up clock that only a step moves, by 10 ms
+    monkeypatch.setattr(bench.time, "perf_counter", lambda: now[0])
+    events: list = []
+
+    def step(k: int) -> None:
+        now[0] += 0.01
+        events.append(("step", k))
+
+    class Bare:
+        def run(self, seconds: float) -> None:
+            events.append(("bare", seconds))
+
+    rate = bench.interleaved(step, 1.2, Bare())  # type: ignore[arg-type]
+    bares = [i for i, (kind, _) in enumerate(events) if kind == "bare"]
+    steps = [k for kind, k in events if kind == "step"]
+    assert len(bares) == bench.SLICES and bares[-1] == len(events) - 1
+    assert steps == list(range(len(steps)))  # k counts the calls
+    for i, b in enumerate(bares):  # each after its slice, for its share of the slice's time
+        first = bares[i - 1] + 1 if i else 0
+        assert b > first and events[b][1] == pytest.approx(bench.BARE_SHARE * 0.01 * (b - first))
+    assert len(steps) == pytest.approx(120, abs=bench.SLICES)  # 1.2 s of 10 ms steps
+    assert rate == pytest.approx(100.0)  # the steps' own time only
+
+
+def test_bare_physics_counts_whole_chunks_on_the_worlds_own_space():
+    import flatland_ma
+    from flatland_ma.bench import BarePhysics
+
+    env = flatland_ma.parallel_env("fruits_poisons")
+    bare = BarePhysics(env)
+    body = env.running.bodies[0].body
+    before = body.position
+    bare.run(0.0)  # one chunk at least
+    bare.run(0.01)
+    assert bare.steps >= 2 * BarePhysics.CHUNK and bare.steps % BarePhysics.CHUNK == 0
+    assert bare.rate == bare.steps / bare.seconds > 0
+    assert body.position != before or body.velocity.length == 0  # its space was stepped
