@@ -110,31 +110,41 @@ def bench_batched(scenario: str, steps: int, seed: int = 0) -> BenchResult:
 
 
 class BarePhysics:
-    """``space.step`` alone on ``env``'s world (after a reset and a few steps, so that the
-    bodies move and touch as they do in play), timed in slices: ``run(seconds)`` steps it
-    for about that long, ``rate`` is env-step equivalents (x substeps) per second over
-    every slice so far. Run between the slices of a row's own timing (``interleaved``), it
-    gives a bare rate from the same stretch of the run, so that the machine's drift moves
-    both rates alike."""
+    """``space.step`` alone on the worlds of ``envs``, in turn (each after a reset and 20
+    steps of seeded random actions, so that bodies move and touch as they do in play: how
+    many touch changes the physics' cost by up to 2x, so one world is a poor sample),
+    timed in slices: ``run(seconds)`` steps them for about that long, ``rate`` is
+    env-step equivalents (x substeps) per second over every slice so far. Run between the
+    slices of a row's own timing (``interleaved``), it gives a bare rate from the same
+    stretch of the run, so that the machine's drift moves both rates alike."""
 
-    CHUNK = 50
-    """Env-step equivalents between two reads of the clock."""
+    CHUNK = 10
+    """Env-step equivalents of each world between two reads of the clock."""
 
-    def __init__(self, env: FlatlandParallelEnv):
-        env.reset(seed=1)
-        for _ in range(20):
-            env.step({a: env.action_space(a).sample() for a in env.agents})
-        world = env.running.world
-        self._space, self._dt, self._substeps = world.space, world.substep_dt, world.substeps
+    def __init__(self, envs: list[FlatlandParallelEnv]):
+        self._worlds = []
+        for k, env in enumerate(envs):
+            env.reset(seed=1 + k)
+            for i, agent in enumerate(env.possible_agents):
+                env.action_space(agent).seed(1000 * k + i)
+            for _ in range(20):
+                env.step({a: env.action_space(a).sample() for a in env.agents})
+            world = env.running.world
+            self._worlds.append((world.space, world.substep_dt, world.substeps * self.CHUNK))
         self.steps, self.seconds = 0, 0.0
 
+    @classmethod
+    def of(cls, scenario, worlds: int = 8, **overrides) -> BarePhysics:
+        """``worlds`` worlds of ``scenario`` (with ``overrides``), seeded 1 to ``worlds``."""
+        return cls([FlatlandParallelEnv(scenario, **overrides) for _ in range(worlds)])
+
     def run(self, seconds: float) -> None:
-        space, dt, substeps = self._space, self._dt, self._substeps * self.CHUNK
         start = time.perf_counter()
         while True:
-            for _ in range(substeps):
-                space.step(dt)
-            self.steps += self.CHUNK
+            for space, dt, substeps in self._worlds:
+                for _ in range(substeps):
+                    space.step(dt)
+            self.steps += self.CHUNK * len(self._worlds)
             elapsed = time.perf_counter() - start
             if elapsed >= seconds:
                 break

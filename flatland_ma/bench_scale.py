@@ -42,11 +42,10 @@ def bench_worlds(
 ) -> BenchResult:
     """World steps per second of ``worlds`` worlds in one batched env (``processes`` 1)
     or sharded over ``processes`` processes; ``overrides`` as for the envs."""
-    from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.envs.shards import ShardedParallelEnv
     from flatland_ma.envs.vector import BatchedParallelEnv
 
-    bare = BarePhysics(FlatlandParallelEnv(scenario, **overrides))
+    bare = BarePhysics.of(scenario, **overrides)
     if processes == 1:
         env = BatchedParallelEnv(scenario, num_worlds=worlds, copy=False, **overrides)
     else:

@@ -38,14 +38,13 @@ def bench_make_vec(worlds: int, seconds: float) -> list[BenchResult]:
     """``make_vec(id, num_envs=worlds)`` and one ``make(id)`` env, each beside bare physics."""
     import gymnasium
 
-    from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.registration import gym_id
 
     name = gym_id(SCENARIO)
     rows = []
     for label, n in ((f"make_vec {name} x {worlds}", worlds), (f"make {name}", 0)):
         env = gymnasium.make_vec(name, num_envs=n) if n else gymnasium.make(name)
-        bare = BarePhysics(FlatlandParallelEnv(SCENARIO))
+        bare = BarePhysics.of(SCENARIO)
         meter = LoadMeter(usable_cpus())
         try:
             env.reset(seed=0)

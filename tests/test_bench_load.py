@@ -91,7 +91,7 @@ def test_bare_physics_counts_whole_chunks_on_the_worlds_own_space():
     from flatland_ma.bench import BarePhysics
 
     env = flatland_ma.parallel_env("fruits_poisons")
-    bare = BarePhysics(env)
+    bare = BarePhysics([env])
     body = env.running.bodies[0].body
     before = body.position
     bare.run(0.0)  # one chunk at least
