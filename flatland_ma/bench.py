@@ -55,15 +55,16 @@ def bench_gym(scenario: str, steps: int, seed: int = 0) -> BenchResult:
     env.reset(seed=seed)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(steps)]
-    start = time.perf_counter()
-    for action in actions:
-        _, _, terminated, truncated, _ = env.step(action)
+    bare = BarePhysics.of(scenario)
+
+    def step(k: int) -> None:
+        _, _, terminated, truncated, _ = env.step(actions[k])
         if terminated or truncated:
             env.reset()
-    rate = steps / (time.perf_counter() - start)
-    bare = bare_space_rate(env.unwrapped.parallel_env, steps)  # type: ignore[attr-defined]
+
+    rate = interleaved(step, bare=bare, calls=steps)
     env.close()
-    return BenchResult(f"gym {gym_id(scenario)}", 1, rate, bare)
+    return BenchResult(f"gym {gym_id(scenario)}", 1, rate, bare.rate)
 
 
 def bench_parallel(scenario: str, steps: int, seed: int = 0) -> BenchResult:
@@ -74,15 +75,16 @@ def bench_parallel(scenario: str, steps: int, seed: int = 0) -> BenchResult:
     for i, space in enumerate(spaces):
         space.seed(seed + i)
     actions = [{a: s.sample() for a, s in zip(env.possible_agents, spaces)} for _ in range(steps)]
-    start = time.perf_counter()
-    for action in actions:
-        env.step(action)
+    bare = BarePhysics.of(scenario)
+
+    def step(k: int) -> None:
+        env.step(actions[k])
         if not env.agents:
             env.reset()
-    rate = steps / (time.perf_counter() - start)
-    bare = bare_space_rate(env, steps)
+
+    rate = interleaved(step, bare=bare, calls=steps)
     env.close()
-    return BenchResult(f"parallel {scenario}", len(env.possible_agents), rate, bare)
+    return BenchResult(f"parallel {scenario}", len(env.possible_agents), rate, bare.rate)
 
 
 BATCH_WORLDS = 16
@@ -99,14 +101,11 @@ def bench_batched(scenario: str, steps: int, seed: int = 0) -> BenchResult:
     batch.action_space.seed(seed)
     rounds = max(1, steps // BATCH_WORLDS)
     actions = [batch.action_space.sample() for _ in range(rounds)]
-    start = time.perf_counter()
-    for action in actions:
-        batch.step(action)
-    rate = rounds * BATCH_WORLDS / (time.perf_counter() - start)
-    bare = bare_space_rate(batch.worlds[0], steps)
+    bare = BarePhysics.of(scenario)
+    rate = interleaved(lambda k: batch.step(actions[k]), bare=bare, calls=rounds) * BATCH_WORLDS
     batch.close()
     label = f"batched {scenario} x {BATCH_WORLDS} worlds"
-    return BenchResult(label, batch.agents_per_world, rate, bare)
+    return BenchResult(label, batch.agents_per_world, rate, bare.rate)
 
 
 class BarePhysics:
@@ -162,37 +161,32 @@ BARE_SHARE = 0.25
 
 
 def interleaved(
-    step: Callable[[int], None], seconds: float, bare: BarePhysics | None = None
+    step: Callable[[int], object],
+    seconds: float | None = None,
+    bare: BarePhysics | None = None,
+    calls: int | None = None,
 ) -> float:
     """Calls per second of ``step(k)`` (k counts the calls) over about ``seconds`` of its
-    own time, at least 3 calls; the time is cut into ``SLICES`` slices, each followed by
-    ``bare`` for ``BARE_SHARE`` of it (when given)."""
-    calls, spent = 0, 0.0
+    own time (at least 3 calls), or over exactly ``calls`` calls; the work is cut into
+    ``SLICES`` slices, each followed by ``bare`` for ``BARE_SHARE`` of its time (when
+    given)."""
+    done, spent = 0, 0.0
     for k in range(SLICES):
-        start, until = time.perf_counter(), seconds / SLICES
-        while calls < 3 * (k + 1) // SLICES or time.perf_counter() - start < until:
-            step(calls)
-            calls += 1
+        start = time.perf_counter()
+        if calls is not None:
+            for _ in range(calls * (k + 1) // SLICES - done):
+                step(done)
+                done += 1
+        else:
+            assert seconds is not None, "give seconds or calls"
+            while done < 3 * (k + 1) // SLICES or time.perf_counter() - start < seconds / SLICES:
+                step(done)
+                done += 1
         elapsed = time.perf_counter() - start
         spent += elapsed
         if bare is not None:
             bare.run(BARE_SHARE * elapsed)
-    return calls / spent
-
-
-def bare_space_rate(env: FlatlandParallelEnv, steps: int) -> float:
-    """Env-step equivalents per second of ``space.step`` alone, on the env's own world,
-    after a reset and a few steps so that the bodies move and touch as they do in play."""
-    env.reset(seed=1)
-    for _ in range(20):
-        env.step({a: env.action_space(a).sample() for a in env.agents})
-    world = env.running.world
-    space, dt, substeps = world.space, world.substep_dt, world.substeps
-    start = time.perf_counter()
-    for _ in range(steps):
-        for _ in range(substeps):
-            space.step(dt)
-    return steps / (time.perf_counter() - start)
+    return done / spent
 
 
 LARGEST = "maze_large"
@@ -242,10 +236,11 @@ def format_table(results: list[BenchResult]) -> str:
         )
     lines.append(
         "bare space.step/s: environment-step equivalents (substeps x space.step) per second "
-        "on the same world. Rates include resets (a new layout each episode where the "
-        "scenario asks for one). Batched rows: env steps are world steps, all worlds "
-        "together. threads: processes x threads. machine: cores other processes kept busy "
-        "during the row (BUSY: the row understates the code)."
+        "on eight worlds of the scenario, timed in slices between the row's own. Rates "
+        "include resets (a new layout each episode where the scenario asks for one). "
+        "Batched rows: env steps are world steps, all worlds together. threads: processes x "
+        "threads. machine: cores other processes kept busy during the row (BUSY: the row "
+        "understates the code)."
     )
     lines += [f"{text}: {ratio:.2f}x slower" for text, ratio in comparisons(results)]
     return "\n".join(lines)

@@ -99,3 +99,21 @@ def test_bare_physics_counts_whole_chunks_on_the_worlds_own_space():
     assert bare.steps >= 2 * BarePhysics.CHUNK and bare.steps % BarePhysics.CHUNK == 0
     assert bare.rate == bare.steps / bare.seconds > 0
     assert body.position != before or body.velocity.length == 0  # its space was stepped
+
+
+def test_a_count_of_calls_is_cut_into_slices_with_the_bare_physics_between():
+    from flatland_ma import bench
+
+    events: list = []
+
+    class Bare:
+        def run(self, seconds: float) -> None:
+            events.append("bare")
+
+    bench.interleaved(lambda k: events.append(k), bare=Bare(), calls=20)  # type: ignore[arg-type]
+    assert [e for e in events if e != "bare"] == list(range(20))  # every call, once, in order
+    assert events.count("bare") == bench.SLICES and events[-1] == "bare"
+    slices = "".join("|" if e == "bare" else "." for e in events).split("|")[:-1]
+    assert [len(s) for s in slices] == [
+        20 * (k + 1) // bench.SLICES - 20 * k // bench.SLICES for k in range(bench.SLICES)
+    ]
