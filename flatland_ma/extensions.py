@@ -4,7 +4,7 @@ A kind is two classes: its implementation, a subclass of one of the four bases, 
 spec, a pydantic model subclassing the matching spec base with the tag that files write
 (a ``Literal`` of the kind's name) and its keys:
 
-- a sensor: ``sensors.sensor.Sensor``, spec ``scenario.spec_agent.SensorBaseSpec``, tag
+- a sensor: ``sensors.sensor.Sensor``, spec ``scenario.spec_sensors.SensorBaseSpec``, tag
   ``type``, listed under an agent's ``sensors``;
 - a rule: ``tasks.rule.Rule``, spec ``scenario.spec_rules.RuleBaseSpec``, tag ``rule``,
   listed under ``rules``;
@@ -36,8 +36,9 @@ from pydantic import BaseModel
 
 from flatland_ma.registry import load_extensions
 from flatland_ma.scenario.kinds import SpecKinds, tag_of
-from flatland_ma.scenario.spec_agent import PARTS, SENSORS
+from flatland_ma.scenario.spec_agent import PARTS
 from flatland_ma.scenario.spec_rules import RULES
+from flatland_ma.scenario.spec_sensors import SENSORS
 from flatland_ma.scenario.spec_world import GENERATORS
 
 SPEC_FAMILIES: dict[str, SpecKinds] = {

@@ -19,7 +19,7 @@ import flatland_ma
 from flatland_ma.agents.parts import PART_KINDS, Control, Jointed, jointed_link
 from flatland_ma.extensions import register
 from flatland_ma.registry import ExtensionError
-from flatland_ma.scenario.spec_agent import CameraSpec, SensorBaseSpec
+from flatland_ma.scenario.spec_sensors import CameraSpec, SensorBaseSpec
 from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -64,7 +64,7 @@ import numpy as np
 from gymnasium import spaces
 from pydantic import Field
 
-from flatland_ma.scenario.spec_agent import SensorBaseSpec
+from flatland_ma.scenario.spec_sensors import SensorBaseSpec
 from flatland_ma.sensors.sensor import Sensor
 
 

@@ -8,7 +8,8 @@ import pytest
 
 import flatland_ma
 from flatland_ma.agents.grasp import HOLD_BIAS
-from flatland_ma.scenario.spec_agent import MAX_FORCE, MAX_RATE, MAX_TORQUE
+from flatland_ma.scenario.spec_agent import MAX_RATE, MAX_TORQUE
+from flatland_ma.scenario.types import MAX_FORCE
 
 JOINT_TOLERANCE = 0.25
 """Radians a joint may be pushed past its limit for a moment by hard impacts at the

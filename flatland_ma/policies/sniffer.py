@@ -21,7 +21,7 @@ import numpy as np
 from flatland_ma.build.bodies import make_sensors
 from flatland_ma.policies.motion import BaseMotion
 from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.scenario.spec_agent import SmellSpec
+from flatland_ma.scenario.spec_sensors import SmellSpec
 
 TOLERANCE = 0.02
 """Nostrils whose scents differ by less than this fraction smell alike: walk on."""

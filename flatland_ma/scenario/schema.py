@@ -3,8 +3,9 @@
 Models are frozen and reject unknown keys. Numbers are strict (a quoted ``"10"`` is an
 error, not a number); lengths are in world units, angles in degrees, times in seconds and
 rectangles ``[x0, y0, x1, y1]``. ``docs/scenarios.md`` documents each field for authors.
-The sections live in ``spec_world`` (layout), ``spec_objects`` (obstacles and items) and
-``spec_agent`` (agents); this module ties them together and checks what spans sections.
+The sections live in ``spec_world`` (layout), ``spec_objects`` (obstacles and items),
+``spec_agent`` (agents) and ``spec_sensors`` (their sensors); this module ties them
+together and checks what spans sections.
 """
 
 from __future__ import annotations

@@ -20,6 +20,8 @@ from flatland_ma.scenario.colors import COLOR_JSON_SCHEMA, color_text, parse_col
 MAX_ARENA_SIDE = 10_000.0
 """The longest side an arena may have, in world units (the largest shipped one is 800):
 it bounds every coordinate, and so the memory of the grids laid over the arena."""
+MAX_FORCE = 100_000.0
+"""The strongest motor force and grasp allowed (the physics is tested at these limits)."""
 
 MIN_LENGTH = 0.1
 """The shortest length of anything physical or seen, in world units (radii, widths,
@@ -42,6 +44,8 @@ Positive = Annotated[float, Field(strict=True, gt=0, allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(strict=True, ge=0, allow_inf_nan=False)]
 Length = Annotated[float, Field(strict=True, ge=MIN_LENGTH, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
 """A length of something physical or seen (radii, widths, thicknesses, periods)."""
+Degrees = Annotated[float, Field(strict=True, ge=-180, le=180, allow_inf_nan=False)]
+"""An angle in degrees, from -180 to 180."""
 Distance = Annotated[float, Field(strict=True, ge=0, le=MAX_ARENA_SIDE, allow_inf_nan=False)]
 """A distance that may be zero (offsets, gaps), no longer than the longest arena side."""
 Mass = Annotated[float, Field(strict=True, ge=MIN_MASS, le=MAX_MASS, allow_inf_nan=False)]

@@ -11,7 +11,7 @@ from gymnasium import spaces
 
 @dataclass(frozen=True)
 class Noise:
-    """See ``scenario.spec_agent.NoiseSpec``: ``gaussian`` is a standard deviation as a
+    """See ``scenario.spec_sensors.NoiseSpec``: ``gaussian`` is a standard deviation as a
     fraction of each entry's range; ``salt_pepper`` and ``dropout`` are chances per
     reading (an entry of a vector; a row of channels in a camera or an image)."""
 

@@ -8,7 +8,7 @@ colour fades with distance; the suite packs them and hands each its slice of the
 
 A new sensor is one subclass, named by its ``kind`` in the class statement (the ``type``
 its scenario spec carries), plus that spec (a subclass of
-``scenario.spec_agent.SensorBaseSpec`` with ``type: Literal["compass"]``), registered
+``scenario.spec_sensors.SensorBaseSpec`` with ``type: Literal["compass"]``), registered
 with ``flatland_ma.register(CompassSpec, Compass)`` (or an entry point; see
 ``flatland_ma.extensions``); the builder finds it in ``SENSOR_KINDS`` and makes it with
 ``from_spec``, which passes the spec's keys (but ``type`` and ``noise``; ``name`` is the
