@@ -117,6 +117,8 @@ class Actuator:
         say = tuple(f"say_{j}" for j in range(words))
         if mode == "discrete":
             self.macros = discrete_macros(parts)
+            self._bases = np.array([m.base for m in self.macros], np.float64)
+            """Each macro's base command (forward, lateral, turn), one row each."""
             self.names = tuple(m.name for m in self.macros) + say
             self.space: spaces.Space = (
                 spaces.MultiDiscrete([len(self.macros)] + [vocabulary] * words)
@@ -173,15 +175,14 @@ class Actuator:
         each, as ``apply`` gives ``AgentBody.command`` (for ``motors.Motors``)."""
         if self.mode == "discrete":
             codes = [a[0] for a in actions] if self.words else actions
-            table = np.array([m.base for m in self.macros], np.float64)
-            return table[np.asarray(codes, np.intp)]
+            return self._bases[np.asarray(codes, np.intp)]
         return np.array([a[:3] for a in actions], np.float64).reshape(-1, 3)
 
     def base_commands_of(self, actions: np.ndarray) -> np.ndarray:
         """``base_commands`` of a batch's array of actions, one per row, each in the space
         (integers of ``Discrete``, or the continuous ``Box``'s numbers in float64)."""
         if self.mode == "discrete":
-            return np.array([m.base for m in self.macros], np.float64)[actions]
+            return self._bases[actions]
         return actions[:, :3].astype(np.float64)
 
     def _check_discrete(self, agent: str, action: object):

@@ -25,6 +25,13 @@ MIN_TOUCH_FORCE = 1.0
 Probability = Annotated[float, Field(strict=True, ge=0, le=1, allow_inf_nan=False)]
 
 
+def _distinct_channels(spec):
+    """``spec`` if no channel of its ``channels`` is given twice, else a ``ValueError``."""
+    if len(set(spec.channels)) < len(spec.channels):
+        raise ValueError("each channel may be given once")
+    return spec
+
+
 class NoiseSpec(Spec):
     """Noise on a sensor's readings, drawn from the env's seeded generator (the one
     ``reset(seed=...)`` seeds). A reading is one entry of a vector, or one ray of a camera
@@ -94,9 +101,7 @@ class CameraSpec(SensorBaseSpec):
 
     @model_validator(mode="after")
     def _distinct_channels(self):
-        if len(set(self.channels)) < len(self.channels):
-            raise ValueError("each channel may be given once")
-        return self
+        return _distinct_channels(self)
 
 
 class LidarSpec(SensorBaseSpec):
@@ -161,9 +166,7 @@ class TopdownSpec(SensorBaseSpec):
 
     @model_validator(mode="after")
     def _distinct_channels(self):
-        if len(set(self.channels)) < len(self.channels):
-            raise ValueError("each channel may be given once")
-        return self
+        return _distinct_channels(self)
 
 
 class TouchSpec(SensorBaseSpec):
