@@ -104,6 +104,11 @@ def test_fixed_layouts_share_the_kernels_grid_and_generated_ones_do_not():
     drawn = BatchedParallelEnv("maze_goal", num_worlds=3)
     drawn.reset(seed=0)
     assert len(_grids(drawn)) == 3
+    for batch in (fixed, drawn):  # the eyes are alike in every world of both
+        assert (
+            len({batch._rays.worlds[w][4].ray_dir.ctypes.data for w in range(batch.num_worlds)})
+            == 1
+        )
 
 
 def test_the_grid_cache_gives_what_binning_gives_and_stays_bounded():
@@ -120,9 +125,9 @@ def test_the_grid_cache_gives_what_binning_gives_and_stays_bounded():
     assert scene.fixed_grid(*args) is env.running.sensors.geometry.grid
     assert data_equivalence(tuple(scene.fixed_grid(*args)), tuple(scene.bin_fixed_shapes(*args)))
     maze = flatland_ma.parallel_env("maze_goal")
-    for seed in range(scene.GRIDS_KEPT + 6):
+    for seed in range(scene.KEPT + 6):
         maze.reset(seed=seed)
-    assert len(scene._GRIDS) == scene.GRIDS_KEPT
+    assert len(scene._KEPT) == scene.KEPT
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 import threading
 from collections import OrderedDict
-from collections.abc import Sequence
-from typing import NamedTuple
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -255,35 +255,58 @@ def pack_eyes(
     )
 
 
-GRIDS_KEPT = 64
-"""Grids of fixed shapes kept for reuse: the layouts a process met last."""
-_GRIDS: OrderedDict[tuple, Grid] = OrderedDict()
-_GRIDS_LOCK = threading.Lock()
+KEPT = 64
+"""Packed arrays kept for reuse (grids of fixed shapes, eyes): those a process met last."""
+_KEPT: OrderedDict[tuple, Any] = OrderedDict()
+_KEPT_LOCK = threading.Lock()
+
+
+def _kept(key: tuple, make: Callable[[], Any]) -> Any:
+    """``make()``, or the same object again for the same ``key``: a world's arrays that
+    every episode of a fixed layout, or every world of a batch, has alike are made once and
+    read from one copy in the cache by every world's rays. Nobody writes them (the kernel
+    only reads them)."""
+    with _KEPT_LOCK:  # envs in several threads share the cache
+        value = _KEPT.get(key)
+        if value is not None:
+            _KEPT.move_to_end(key)
+            return value
+    value = make()
+    with _KEPT_LOCK:
+        value = _KEPT.setdefault(key, value)
+        while len(_KEPT) > KEPT:
+            _KEPT.popitem(last=False)
+    return value
 
 
 def fixed_grid(seg_world, seg_fixed, circ_world, circ_fixed, target_cells: int = 1024) -> Grid:
-    """``bin_fixed_shapes``, the same ``Grid`` object again for the same fixed shapes (a
-    layout that is the same every episode, or in every world of a batch): binned once, and
-    read from one copy in the cache by every world's rays. Nobody writes a grid's arrays
-    (the kernel only reads them)."""
+    """``bin_fixed_shapes``, the same ``Grid`` object again for the same fixed shapes."""
     key = (
+        "grid",
         seg_world[seg_fixed].tobytes(),
         np.flatnonzero(seg_fixed).tobytes(),
         circ_world[circ_fixed].tobytes(),
         np.flatnonzero(circ_fixed).tobytes(),
         target_cells,
     )
-    with _GRIDS_LOCK:  # envs in several threads share the cache
-        grid = _GRIDS.get(key)
-        if grid is not None:
-            _GRIDS.move_to_end(key)
-            return grid
-    grid = bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells)
-    with _GRIDS_LOCK:
-        grid = _GRIDS.setdefault(key, grid)
-        while len(_GRIDS) > GRIDS_KEPT:
-            _GRIDS.popitem(last=False)
-    return grid
+    return _kept(
+        key, lambda: bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells)
+    )
+
+
+def shared_eyes(body, local, owner, view_range, half_fov, falloff, angles) -> Eyes:
+    """``pack_eyes``, the same ``Eyes`` object again for the same eyes."""
+    key = (
+        "eyes",
+        tuple(body),
+        tuple(local),
+        tuple(owner),
+        tuple(view_range),
+        tuple(half_fov),
+        tuple(falloff),
+        tuple(np.asarray(a, np.float64).tobytes() for a in angles),
+    )
+    return _kept(key, lambda: pack_eyes(body, local, owner, view_range, half_fov, falloff, angles))
 
 
 def bin_fixed_shapes(seg_world, seg_fixed, circ_world, circ_fixed, target_cells: int = 1024):

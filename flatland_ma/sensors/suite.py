@@ -16,7 +16,7 @@ from gymnasium import spaces
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.geometry import Geometry
 from flatland_ma.sensors.lists import filled, put
-from flatland_ma.sensors.scene import Outputs, Scratch, pack_eyes
+from flatland_ma.sensors.scene import Outputs, Scratch, shared_eyes
 from flatland_ma.sensors.semantic import kind_table
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.sensors.threads import Chooser, fit_threads
@@ -86,7 +86,7 @@ class Sensors:
         counts = counts if counts is not None else [1] * len(cameras)
         firsts = [sum(counts[:i]) for i in range(len(counts) + 1)]
         self.per_agent = [list(range(a, b)) for a, b in zip(firsts[:-1], firsts[1:])]
-        self.eyes = pack_eyes(
+        self.eyes = shared_eyes(
             body=[geo.body_row[e.index] for e in eyes],
             local=[(0.0, 0.0, 0.0)] * len(eyes),
             owner=[e.owner for e in eyes],
@@ -163,22 +163,6 @@ def _observe_worlds_serial(worlds, which):
         kernel.observe(a[0], a[1], a[2], a[3], a[4], a[5], a[6])
 
 
-SHARED = (4,)
-"""The kernel's arguments that it only reads and that every world of a scenario has
-alike, packed anew each episode: the eyes. Worlds whose own are equal to the first world's
-are given the first world's, so the kernel reads one copy from the cache instead of one
-per world. (The grid of fixed shapes is shared at its source: ``scene.fixed_grid`` gives
-every world of a layout the same one; together, 15 of a world's 29 KiB at 256 worlds of
-``fruits_poisons_multi``.)"""
-
-
-def _equal(a: tuple, b: tuple) -> bool:
-    """Whether two named tuples of arrays hold the same arrays, dtype and all."""
-    return all(
-        x.dtype == y.dtype and x.shape == y.shape and np.array_equal(x, y) for x, y in zip(a, b)
-    )
-
-
 class WorldsKernel:
     """One kernel call for the rays of many worlds of one scenario: ``set(w, suite)`` when
     world ``w`` gets a new episode's sensors, ``prepare`` each world's suite, then
@@ -192,7 +176,6 @@ class WorldsKernel:
         self.n = n
         self.parallel = parallel
         self.worlds = None
-        self._common: list = []
         self._function: Callable | None = None
 
     def set(self, w: int, suite: Sensors, image: np.ndarray | None = None) -> None:
@@ -205,12 +188,8 @@ class WorldsKernel:
             args[5] = args[5]._replace(image=image)
         if self.worlds is None:
             self.worlds = filled(tuple(args), self.n)
-            self._common = [args[k] for k in SHARED]
-            return
-        for k, common in zip(SHARED, self._common):
-            if args[k] is not common and _equal(args[k], common):
-                args[k] = common
-        put(self.worlds, w, tuple(args))
+        else:
+            put(self.worlds, w, tuple(args))
 
     def observe(self, which: np.ndarray) -> None:
         if self._function is None:
