@@ -54,7 +54,27 @@ def table(data: dict) -> str:
         note = f" ({run['note']})" if run.get("note") else ""
         notes.append(f"- {run['run']}: {_number(run['agent_steps_per_s'])} agent-steps/s{note}.")
     notes.append(f"- Cores: {data['cores']}; numpy {data['numpy']}.")
-    return "\n".join(lines) + "\n\n" + "\n".join(notes)
+    text = "\n".join(lines) + "\n\n" + "\n".join(notes)
+    if data.get("breakdown"):
+        text += "\n\n" + breakdown_table(data["breakdown"])
+    return text
+
+
+def breakdown_table(rows: list[dict]) -> str:
+    """Where a world-step goes (``flatland_ma.bench_breakdown``), one line per row."""
+    lines = [
+        "| where a world-step goes, us of CPU | step | physics | rays | rest "
+        "| reset (its share) | total | bare physics |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['scenario']} x {r['worlds']} ({r['agents']} agents) | {r['step']:.1f} "
+            f"| {r['physics']:.1f} | {r['rays']:.1f} | {r['rest']:.1f} "
+            f"| {r['reset'] / 1000:.1f} ms / {r['step_limit']} steps ({r['reset_share']:.1f}) "
+            f"| {r['total']:.1f} | {r['bare']:.1f} |"
+        )
+    return "\n".join(lines)
 
 
 def _cell(row: dict | None) -> str:

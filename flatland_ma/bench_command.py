@@ -105,9 +105,9 @@ def _scale(args) -> int:
 
     worlds = args.worlds or bench_scale.WORLDS
     seconds = args.seconds or bench_scale.SECONDS
-    results, training, rays = bench_scale.run(worlds, seconds, not args.no_ppo)
+    scale = bench_scale.run(worlds, seconds, not args.no_ppo)
     if args.json:
-        print(json.dumps(bench_scale.as_json(results, training, rays), indent=1))
+        print(json.dumps(bench_scale.as_json(scale), indent=1))
     else:
-        print(bench_scale.format_table(results, training, rays))
+        print(bench_scale.format_table(scale))
     return 0

@@ -8,6 +8,11 @@ the row's scenario (x its substeps), times the row's processes: what the physics
 worlds would cost if nothing else ran. It is timed in slices between slices of the row's
 own timing (``bench.interleaved``), so that both rates come from the same stretch of the
 run.
+
+In its seconds a row of 16 worlds goes through every world's reset several times; rows of
+256 worlds and more reach no episode's end, so they leave the resets out. Where a
+world-step goes (``bench_breakdown``, one thread) compares the sizes without resets and
+gives a reset's share apart.
 """
 
 from __future__ import annotations
@@ -17,12 +22,13 @@ import os
 import subprocess
 import sys
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from flatland_ma.bench import BarePhysics, BenchResult, interleaved
+from flatland_ma.bench_breakdown import Breakdown, format_rows, measure
 from flatland_ma.bench_load import Load, LoadMeter
 from flatland_ma.bench_targets import RayRate, bench_busy_core, bench_make_vec, bench_rays
 
@@ -147,11 +153,25 @@ BUSY_WORLDS = 16
 """Worlds of the rows with and without a busy process holding a core."""
 
 
-def run(
-    worlds: tuple[int, ...] = WORLDS, seconds: float = SECONDS, ppo: bool = True
-) -> tuple[list[BenchResult], list[TrainingRate], RayRate]:
+@dataclass
+class ScaleRun:
+    """What ``run`` measured: the rows of worlds and the targets' rows, PPO end to end,
+    the ray kernel's rate, and where a world-step goes (``bench_breakdown``)."""
+
+    results: list[BenchResult]
+    training: list[TrainingRate]
+    rays: RayRate | None = None
+    breakdowns: list[Breakdown] = field(default_factory=list)
+
+
+BREAKDOWN_WORLDS = 16
+"""Rows of worlds from this many up get a breakdown of their world-step."""
+
+
+def run(worlds: tuple[int, ...] = WORLDS, seconds: float = SECONDS, ppo: bool = True) -> ScaleRun:
     """Every row of worlds (one process, and every core), then the targets' rows
-    (``bench_targets``), the ray kernel's rate and PPO end to end (unless not ``ppo``)."""
+    (``bench_targets``), the ray kernel's rate, where a world-step goes (one thread, rows
+    of ``BREAKDOWN_WORLDS`` worlds or more) and PPO end to end (unless not ``ppo``)."""
     check_worlds(worlds)
     results = []
     for scenario in SCENARIOS:
@@ -161,12 +181,14 @@ def run(
     results += bench_make_vec(TARGET_WORLDS, seconds)
     results += bench_busy_core(BUSY_WORLDS, seconds)
     rays = bench_rays(TARGET_WORLDS, seconds)
-    return results, [bench_ppo()] if ppo else [], rays
+    breakdowns = [
+        measure(scenario, n) for scenario in SCENARIOS for n in worlds if n >= BREAKDOWN_WORLDS
+    ]
+    return ScaleRun(results, [bench_ppo()] if ppo else [], rays, breakdowns)
 
 
-def format_table(
-    results: list[BenchResult], training: list[TrainingRate], rays: RayRate | None = None
-) -> str:
+def format_table(scale: ScaleRun) -> str:
+    results, training, rays = scale.results, scale.training, scale.rays
     header = (
         f"{'batched env':48} {'agents':>6} {'world steps/s':>14} {'agent steps/s':>14} "
         f"{'bare physics/s':>15} {'cost / bare':>12}  {'threads':18} machine"
@@ -195,6 +217,8 @@ def format_table(
     for t in training:
         rate = f"{t.agent_steps_per_s:,.0f} agent-steps/s" if t.agent_steps_per_s else t.note
         lines.append(f"{t.label}: {rate}")
+    if scale.breakdowns:
+        lines += ["", format_rows(scale.breakdowns)]
     return "\n".join(lines)
 
 
@@ -203,9 +227,8 @@ def _cost(r: BenchResult) -> str:
     return f"{r.bare_steps_per_s / r.env_steps_per_s:.1f}x" if r.bare_steps_per_s else ""
 
 
-def as_json(
-    results: list[BenchResult], training: list[TrainingRate], rays: RayRate | None = None
-) -> dict:
+def as_json(scale: ScaleRun) -> dict:
+    results, training, rays = scale.results, scale.training, scale.rays
     return {
         "batched": [
             {
@@ -229,6 +252,7 @@ def as_json(
             "rays_per_s_per_core": rays.rays_per_s_per_core,
             "wall_rays_per_s": rays.wall_rays_per_s,
         },
+        "breakdown": [b.as_dict() for b in scale.breakdowns],
         "cores": cores(),
         "numpy": np.__version__,
     }
