@@ -93,6 +93,39 @@ def test_continuous_actions_batched_play_what_separate_envs_play():
                 assert rewards[w * m + j] == rew[agent]
 
 
+def test_rewards_and_ends_written_at_once_are_what_separate_envs_give():
+    # Every slot acts from one array: the batch writes every world's rewards and
+    # terminations in one go after its loop. Through items taken and resets, they are
+    # the separate envs' slot for slot.
+    batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=2, max_cycles=60)
+    envs = [flatland_ma.parallel_env("fruits_poisons_multi", max_cycles=60) for _ in range(2)]
+    m = batch.agents_per_world
+    batch.reset(seed=3)
+    for w, env in enumerate(envs):
+        env.reset(seed=3 + w)
+    batch.single_action_space.seed(3)
+    rewarded = truncated = 0
+    for _ in range(200):
+        actions = np.array([batch.single_action_space.sample() for _ in range(batch.num_slots)])
+        _, rewards, terminations, truncations, _ = batch.step(actions)
+        want = []
+        for w, env in enumerate(envs):
+            if not env.agents:  # the batch resets this world in this step
+                env.reset()
+                want += [(0.0, False, False)] * m
+                continue
+            _, rew, term, trunc, _ = env.step(
+                {a: actions[w * m + j] for j, a in enumerate(env.possible_agents)}
+            )
+            want += [(rew[a], term[a], trunc[a]) for a in env.possible_agents]
+        np.testing.assert_array_equal(rewards, [r for r, _, _ in want])
+        np.testing.assert_array_equal(terminations, [t for _, t, _ in want])
+        np.testing.assert_array_equal(truncations, [t for _, _, t in want])
+        rewarded += int(np.count_nonzero(rewards))
+        truncated += int(truncations.any())
+    assert rewarded > 0 and truncated >= 3  # items were taken, episodes ran out
+
+
 def _grids(batch):
     return {batch._rays.worlds[w][2].cell_full.ctypes.data for w in range(batch.num_worlds)}
 

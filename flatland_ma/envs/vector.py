@@ -39,9 +39,10 @@ of actions is checked at once, every world's plain bodies are driven in one comp
 bodies' poses are read back in one call, the rays of every world are cast in one call of
 the compiled kernel, spread over numba's threads (``parallel=False``: on one), straight
 into the world's slots of the stacked observations while they are its cameras' rays as
-they are and every agent plays (else into its own image, then copied), and each world's
-rewards and counters are written as slices of the stacked arrays (its counters only after
-a step that may have moved them: ``Task.revision``).
+they are and every agent plays (else into its own image, then copied), every world's
+rewards and terminations are written in one go while every slot acts (else world by
+world), and each world's counters as slices of the stacked arrays (only after a step that
+may have moved them: ``Task.revision``).
 """
 
 from __future__ import annotations
@@ -237,16 +238,25 @@ class BatchedParallelEnv:
                     self._poses.read(which)
                 self._rays.observe(which)
             same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
+            # While every slot acts, rewards and terminations go in once after the loop (a
+            # numpy write per world costs more than the world's rules).
+            all_rewards, all_terminated = [], []
             for w, env, live, rewards, terminated, truncated in advanced:
-                task, base = env.running.task, w * m
+                episode, base = env.running, w * m
                 # The world's live slots: a slice while every agent plays.
                 whole = len(live) == m
                 rows = slice(base, base + m) if whole else [base + i for i in live]
                 if not (whole and self._written[w]):
-                    self._observe(env.running.sensors, base, live, rows)
-                slots.rewards[rows] = rewards if whole else [rewards[i] for i in live]
-                slots.terminations[rows] = terminated if whole else [terminated[i] for i in live]
-                slots.truncations[rows] = truncated
+                    self._observe(episode.sensors, base, live, rows)
+                if every_slot:
+                    all_rewards += rewards
+                    all_terminated += terminated
+                else:
+                    slots.rewards[rows] = [rewards[i] for i in live]
+                    slots.terminations[rows] = [terminated[i] for i in live]
+                if truncated:
+                    slots.truncations[rows] = True
+                task = episode.task
                 if task.revision != self._revisions[w]:  # the counters may have moved
                     self._revisions[w] = task.revision
                     for key, values in task.columns(live).items():
@@ -256,6 +266,9 @@ class BatchedParallelEnv:
                         if terminated[i] or truncated:
                             finals[base + i] = (slots.seen(base + i), task.info(i))
                 self._ended[w] = not env.agents
+            if every_slot:
+                slots.rewards[:] = all_rewards
+                slots.terminations[:] = all_terminated
         finally:
             for env in entered:
                 env.leave()
