@@ -142,10 +142,7 @@ class BarePhysics:
     def run(self, seconds: float) -> None:
         start = time.perf_counter()
         while True:
-            for space, dt, substeps in self._worlds:
-                for _ in range(substeps):
-                    space.step(dt)
-            self.steps += self.CHUNK * len(self._worlds)
+            self._chunk()
             elapsed = time.perf_counter() - start
             if elapsed >= seconds:
                 break
@@ -156,11 +153,15 @@ class BarePhysics:
         CPU clock: bounded by work, not by the clock."""
         start = time.thread_time()
         for _ in range(chunks):
-            for space, dt, substeps in self._worlds:
-                for _ in range(substeps):
-                    space.step(dt)
-        self.steps += chunks * self.CHUNK * len(self._worlds)
+            self._chunk()
         self.seconds += time.thread_time() - start
+
+    def _chunk(self) -> None:
+        """``CHUNK`` env-step equivalents of every world, counted."""
+        for space, dt, substeps in self._worlds:
+            for _ in range(substeps):
+                space.step(dt)
+        self.steps += self.CHUNK * len(self._worlds)
 
     @property
     def rate(self) -> float:

@@ -110,8 +110,8 @@ def measure(
         if any(w.num_steps != steps + 1 for w in env.worlds):
             raise AssertionError("a world was reset during the timed steps")
         rays = _per_world(lambda: env._rays.observe(np.arange(worlds, dtype=np.int64)), worlds)
-        spaces = [w.running.world for w in env.worlds]
-        physics = _per_world(lambda: [world.step() for world in spaces], worlds)
+        own = [w.running.world for w in env.worlds]
+        physics = _per_world(lambda: [world.step() for world in own], worlds)
         reset = _resets(env, max(worlds, RESETS))
         agents = env.agents_per_world
     finally:
