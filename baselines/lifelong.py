@@ -46,7 +46,7 @@ from torch.utils._pytree import tree_map
 from baselines.common import input_channels, seed_everything
 from baselines.networks import Agent
 from baselines.ppo import Args as PPOArgs
-from baselines.ppo import Rollout
+from baselines.ppo_learner import Rollout
 
 EVALUATION_SEED = 1_000_000
 """Evaluation worlds are seeded from here on, apart from every training world."""
@@ -246,7 +246,7 @@ def train(args: Args, agent, optimizer, env, steps: int, evaluator, every: int, 
         if replay is not None:
             replay.add_rollout(rollout)
             penalty = replay.penalty(agent, batch)
-        rollout.learn(agent, optimizer, args, observation, penalty)
+        rollout.learn(agent, optimizer, args, penalty=penalty)
         if replay is not None and task[-1] != before:  # the task changed in this rollout
             replay.end_task(before, agent)
         if step >= next_block and step < steps:

@@ -36,16 +36,14 @@ from __future__ import annotations
 
 import os
 import time
+import warnings
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Literal
 
-import gymnasium
 import numpy as np
 import torch
 import tyro
-from torch import nn
-from torch.utils._pytree import tree_leaves, tree_map
 
 from baselines.common import (
     RunLog,
@@ -56,6 +54,7 @@ from baselines.common import (
 )
 from baselines.curriculum import Stage, curriculum_stages
 from baselines.networks import Agent
+from baselines.ppo_learner import Overlapped, Rollout, keep_freed_memory
 from baselines.ppo_presets import with_preset
 from baselines.shaping import learning_reward
 from baselines.writer import Scalars
@@ -118,7 +117,12 @@ class Args:
     tensorboard: bool = True
     """Write TensorBoard events beside the CSV."""
     torch_threads: int = 1
-    """Threads torch may use."""
+    """Threads torch may use (checked at the end of the run; the JSON records it)."""
+    overlap: bool = False
+    """Collect the next rollout while the network updates on the last one, in a thread
+    of its own: the rollout is acted by the parameters from before that update (a policy
+    lag of one update, as APPO's), which the PPO ratio corrects for. With two cores, about
+    twice the agent-steps per second of wall time."""
     shards: int = 1
     """Processes the worlds are spread over (1: all in this process)."""
     critic: Literal["local", "state"] = "local"
@@ -137,196 +141,6 @@ class Args:
     curriculum: str = ""
     """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
     their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""
-
-
-def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> torch.Tensor:
-    """Generalised advantage estimation per slot over a rollout of T steps:
-        delta_t = r_t + gamma V(s_{t+1}) (1 - terminated_t) - V(s_t)
-        A_t = delta_t + gamma lambda (1 - ended_t) A_{t+1}
-    where s_{t+1} is what step t returned: after a truncation, the episode's last
-    observation (NEXT_STEP autoreset), so the cut episode bootstraps from its value."""
-    advantages = torch.zeros_like(rewards)
-    last = torch.zeros_like(next_value)
-    for t in reversed(range(len(rewards))):
-        following = next_value if t == len(rewards) - 1 else values[t + 1]
-        delta = rewards[t] + gamma * following * (1.0 - stops[t]) - values[t]
-        advantages[t] = last = delta + gamma * lam * (1.0 - ends[t]) * last
-    return advantages
-
-
-def update(
-    agent,
-    optimizer,
-    args: Args,
-    acting,
-    observations,
-    actions,
-    logprobs,
-    advantages,
-    returns,
-    values,
-    penalty=None,
-    states=None,
-) -> dict:
-    """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
-    mean losses. Clipped surrogate, clipped value loss, entropy bonus:
-        L = -min(ratio A, clip(ratio, 1 - eps, 1 + eps) A)
-            + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
-            - ent_coef * H [+ penalty()],   ratio = pi(a|s) / pi_old(a|s)
-    with V read from ``states`` where the critic is centralised."""
-    used = acting.reshape(-1).nonzero().squeeze(1)
-    b_states = None if states is None else states.reshape(-1, states.shape[-1])
-    b_x = tree_map(lambda x: x.reshape(-1, *x.shape[2:]), observations)
-    b_actions, b_logprobs = actions.reshape(-1, actions.shape[-1]), logprobs.reshape(-1)
-    b_advantages, b_returns, b_values = (
-        advantages.reshape(-1),
-        returns.reshape(-1),
-        values.reshape(-1),
-    )
-    stats: dict[str, list[float]] = {}
-    for epoch in range(args.update_epochs):
-        # num_minibatches parts of (nearly) equal size: no leftover part of one entry.
-        for index in used[torch.randperm(len(used))].tensor_split(args.num_minibatches):
-            x = tree_map(lambda x, index=index: x[index], b_x)
-            state = None if b_states is None else b_states[index]
-            _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
-            log_ratio = new_logprob - b_logprobs[index]
-            ratio = log_ratio.exp()
-            advantage = b_advantages[index]
-            advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
-            policy_loss = torch.max(
-                -advantage * ratio,
-                -advantage * ratio.clamp(1 - args.clip_coef, 1 + args.clip_coef),
-            ).mean()
-            clipped = b_values[index] + (new_value - b_values[index]).clamp(
-                -args.clip_coef, args.clip_coef
-            )
-            value_loss = (
-                0.5
-                * torch.max(
-                    (new_value - b_returns[index]).square(), (clipped - b_returns[index]).square()
-                ).mean()
-            )
-            loss = policy_loss + args.vf_coef * value_loss - args.ent_coef * entropy.mean()
-            if penalty is not None:  # e.g. EWC's pull towards earlier tasks' parameters
-                loss = loss + penalty()
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
-            optimizer.step()
-            if epoch == args.update_epochs - 1:
-                with torch.no_grad():
-                    for key, value in (
-                        ("losses/policy", policy_loss),
-                        ("losses/value", value_loss),
-                        ("losses/entropy", entropy.mean()),
-                        ("losses/approx_kl", ((ratio - 1) - log_ratio).mean()),
-                        (
-                            "losses/clip_fraction",
-                            ((ratio - 1).abs() > args.clip_coef).float().mean(),
-                        ),
-                    ):
-                        stats.setdefault(key, []).append(float(value))
-    return {key: float(np.mean(values)) for key, values in stats.items()}
-
-
-class Rollout:
-    """T steps of every slot of a batched env: what the policy saw and did, and what came
-    of it; ``collect`` fills it, ``learn`` runs PPO's epochs over it."""
-
-    def __init__(self, agent: Agent, env, observation, steps: int):
-        T, slots = steps, env.num_slots
-        self.steps = steps
-        self.observations = tree_map(lambda x: torch.zeros((T, *x.shape)), observation)
-        """The raw observations, as the env gives them (a dict of arrays for a Dict space)."""
-        self.actions = torch.zeros((T, slots, len(agent.sizes)), dtype=torch.long)
-        self.discrete = isinstance(env.single_action_space, gymnasium.spaces.Discrete)
-        self.logprobs, self.rewards, self.values = (torch.zeros((T, slots)) for _ in range(3))
-        self.acting = torch.zeros((T, slots), dtype=torch.bool)
-        """Whether the env used the slot's action on that step."""
-        self.ends, self.stops = torch.zeros((T, slots)), torch.zeros((T, slots))
-        """Whether the slot's episode ended on that step (terminated or truncated), and
-        whether it terminated (no bootstrap)."""
-        self.next_acting = np.ones(slots, bool)
-        """Whether the env will use each slot's next action."""
-        self.states = torch.zeros((T, slots, agent.state_size)) if agent.state_size else None
-        """Each slot's critic input (``slot_states``) when the critic is centralised."""
-        self.next_state: torch.Tensor | None = None
-        self.env_seconds = 0.0
-
-    def collect(
-        self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
-    ):
-        """Act for ``steps`` steps from ``observation``; after each,
-        ``after_step(reward, terminated, done, infos, acted)`` with ``acted`` the number
-        of slots whose action the env used. The rollout keeps
-        ``learn_from(reward, terminated) * reward_scale`` (the reward itself when
-        ``learn_from`` is None). Returns the last observation."""
-        for t in range(self.steps):
-            for stored, x in zip(tree_leaves(self.observations), tree_leaves(observation)):
-                stored[t] = torch.from_numpy(x)
-            self.acting[t] = torch.from_numpy(self.next_acting)
-            state = None
-            if self.states is not None:
-                self.states[t] = state = torch.from_numpy(slot_states(env))
-            with torch.inference_mode():
-                action, logprob, _, value = agent.act(
-                    tree_map(lambda x, t=t: x[t], self.observations), state=state
-                )
-            self.actions[t], self.logprobs[t], self.values[t] = action, logprob, value
-            tick = time.perf_counter()
-            sent = action[:, 0] if self.discrete else action
-            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
-            self.env_seconds += time.perf_counter() - tick
-            done = terminated | truncated
-            learnt = reward if learn_from is None else learn_from(reward, terminated)
-            self.rewards[t] = torch.from_numpy(learnt * reward_scale)
-            self.ends[t] = torch.from_numpy(done)
-            self.stops[t] = torch.from_numpy(terminated)
-            after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
-            # The env uses a slot's action next step unless it just finished or was inert.
-            self.next_acting = infos["active"] & ~done
-        if self.states is not None:
-            self.next_state = torch.from_numpy(slot_states(env))
-        return observation
-
-    def learn(self, agent: Agent, optimizer, args, observation, penalty=None) -> dict:
-        """GAE from the value of ``observation`` (what the last step returned), then
-        PPO's epochs (``update``), with ``penalty()`` added to the loss if given."""
-        with torch.inference_mode():
-            next_value = agent.value(tree_map(torch.from_numpy, observation), self.next_state)
-        advantages = gae(
-            self.rewards,
-            self.values,
-            self.ends,
-            self.stops,
-            next_value,
-            args.gamma,
-            args.gae_lambda,
-        )
-        return update(
-            agent,
-            optimizer,
-            args,
-            self.acting,
-            self.observations,
-            self.actions,
-            self.logprobs,
-            advantages,
-            advantages + self.values,
-            self.values,
-            penalty,
-            self.states,
-        )
-
-
-def slot_states(env) -> np.ndarray:
-    """Each slot's input to a centralised critic: its world's global state
-    (``env.state()``, one row per world) and a one-hot of which agent of the world it is."""
-    m = env.agents_per_world
-    states = np.repeat(env.state(), m, axis=0)
-    who = np.tile(np.eye(m, dtype=np.float32), (env.num_worlds, 1))
-    return np.concatenate([states, who], axis=1, dtype=np.float32)
 
 
 def batched_env(args: Args, stage: Stage | None = None):
@@ -356,9 +170,10 @@ def run_name(args: Args) -> str:
 
 def main(args: Args) -> dict:
     args = with_preset(args)
-    cpu_start, load_start = cpu_seconds(), os.getloadavg()
+    setup_cpu, load_start = cpu_seconds(), os.getloadavg()
     seed_everything(args.seed)
     torch.set_num_threads(args.torch_threads)
+    keep_freed_memory()
     stages = curriculum_stages(args.curriculum) if args.curriculum else []
     total_timesteps = sum(s.steps for s in stages) if stages else args.total_timesteps
     ends = np.cumsum([s.steps for s in stages])
@@ -371,14 +186,10 @@ def main(args: Args) -> dict:
     iterations = max(1, total_timesteps // (slots * args.num_steps))
     csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
     run_dir = csv_path.with_suffix("")
-    start = time.perf_counter()
+    # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
+    # from their cache), the network and the optimiser (its first import of torch's
+    # compiler takes a second or more).
     observation, infos = env.reset(seed=args.seed * args.num_envs)
-    env_seconds = time.perf_counter() - start
-    # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
-    counters = tuple(k for k in infos if k != "active" and infos[k].dtype.kind in "iuf")
-    log = RunLog("ppo", str(csv_path), args.seed, args, counters)
-    scalars = Scalars(run_dir if args.tensorboard else None)
-
     agent = Agent(
         space,
         env.single_action_space,
@@ -388,6 +199,18 @@ def main(args: Args) -> dict:
         state_size=env.single_state_space.shape[0] + m if args.critic == "state" else 0,
     )
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
+    # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
+    counters = tuple(k for k in infos if k != "active" and infos[k].dtype.kind in "iuf")
+    log = RunLog("ppo", str(csv_path), args.seed, args, counters)
+    scalars = Scalars(run_dir if args.tensorboard else None)
+    overlapped = (
+        Overlapped(agent, env, observation, args.num_steps, args.seed) if args.overlap else None
+    )
+    rollout = Rollout(agent, env, observation, args.num_steps)
+    if overlapped is not None:
+        print("overlap: each rollout is acted by the policy of one update before", flush=True)
+    start, cpu_start = time.perf_counter(), cpu_seconds()
+    setup_cpu = cpu_start - setup_cpu
 
     def save(path: Path, update: int) -> None:
         write_checkpoint(
@@ -408,7 +231,6 @@ def main(args: Args) -> dict:
             },
         )
 
-    rollout = Rollout(agent, env, observation, args.num_steps)
     learn_from = learning_reward(args, env)
     episode_returns = np.zeros(slots)
     finished: dict[int, tuple[float, dict]] = {}
@@ -440,7 +262,7 @@ def main(args: Args) -> dict:
             env.close()
             env = batched_env(args, stages[stage])
             observation, _ = env.reset(seed=args.seed * args.num_envs)
-            rollout.next_acting[:] = True
+            (overlapped or rollout).next_acting[:] = True
             episode_returns[:] = 0.0
             finished.clear()
             learn_from = learning_reward(args, env)
@@ -449,10 +271,16 @@ def main(args: Args) -> dict:
         lr = args.learning_rate * (1 - (iteration - 1) / iterations)
         if args.anneal_lr:
             optimizer.param_groups[0]["lr"] = lr
-        observation = rollout.collect(
-            agent, env, observation, args.reward_scale, after_step, learn_from
-        )
-        stats = rollout.learn(agent, optimizer, args, observation)
+        if overlapped is None:
+            observation = rollout.collect(
+                agent, env, observation, args.reward_scale, after_step, learn_from
+            )
+            stats = rollout.learn(agent, optimizer, args)
+        else:
+            observation = overlapped.collect(
+                env, observation, args.reward_scale, after_step, learn_from
+            )
+            stats = overlapped.learn(agent, optimizer, args)
         sps = global_step / (time.perf_counter() - start)
         for key, value in {
             **stats,
@@ -461,26 +289,47 @@ def main(args: Args) -> dict:
         }.items():
             scalars.add(key, value, global_step)
         if args.checkpoint_every and iteration % args.checkpoint_every == 0:
+            if overlapped is not None:
+                overlapped.wait()  # the checkpoint holds this iteration's update
             save(run_dir / f"update_{iteration:05d}{SUFFIX}", iteration)
+    if overlapped is not None:
+        overlapped.wait()
     save(csv_path.with_suffix(SUFFIX), iterations)
     scalars.close()
     env.close()
     machine = {
         "cpu_seconds": round(cpu_seconds() - cpu_start, 2),
+        "setup_cpu_seconds": round(setup_cpu, 2),
+        "threads": threads_used(args.torch_threads),
+        "policy_lag": 1 if overlapped is not None else 0,
         "load_average_start": [round(x, 2) for x in load_start],
         "load_average_end": [round(x, 2) for x in os.getloadavg()],
     }
     if stages:
         machine["curriculum"] = [{"name": s.name, "began": step} for s, step in zip(stages, began)]
-    # The share of the whole run, the first reset (numba's compilation, if any) included.
     busy = time.perf_counter() - start
-    summary = log.close(global_step, env_seconds + rollout.env_seconds, busy, extra=machine)
+    summary = log.close(global_step, (overlapped or rollout).env_seconds, busy, extra=machine)
     print(
         f"done: {global_step} agent-steps in {time.perf_counter() - start:.0f} s "
         f"({machine['cpu_seconds']:.0f} s of CPU), env {summary['env_share']:.1%} of it",
         flush=True,
     )
     return summary
+
+
+def threads_used(asked: int) -> dict:
+    """The threads torch and the ray kernel use at the end of the run; warns if torch's
+    differ from what the run asked for."""
+    import numba
+
+    used = {
+        "torch": torch.get_num_threads(),
+        "torch_asked": asked,
+        "kernel": numba.get_num_threads(),
+    }
+    if used["torch"] != asked:
+        warnings.warn(f"torch ran on {used['torch']} threads, not the {asked} asked", stacklevel=2)
+    return used
 
 
 if __name__ == "__main__":

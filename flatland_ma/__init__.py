@@ -14,17 +14,17 @@ command such as ``flatland-ma list`` starts quickly.
 from __future__ import annotations
 
 import importlib
-import os
-
-# OpenMP's idle threads (the ray kernel's, and torch's: one library) sleep instead of
-# spinning, unless the user chose otherwise. It must be set before OpenMP starts: importing
-# flatland_ma before torch does it (see flatland_ma.sensors.threads).
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
 from flatland_ma.registration import register_gym_ids, register_stream_ids
 from flatland_ma.scenario.loader import list_scenarios, load_scenario
+
+# OpenMP's idle threads (the ray kernel's, and torch's: one library) sleep instead of
+# spinning, unless the user chose otherwise. It must be set before OpenMP starts (none of
+# the imports above starts it), so importing flatland_ma before torch does it; imported
+# after, it warns (flatland_ma.sensors.threads).
+from flatland_ma.sensors import threads as _threads  # noqa: F401
 
 if TYPE_CHECKING:
     from flatland_ma.build.feasibility import check_scenario

@@ -434,7 +434,7 @@ def test_a_centralised_critic_values_the_world_state_and_which_agent_it_is(tmp_p
     import torch
 
     from baselines.networks import Agent
-    from baselines.ppo import slot_states
+    from baselines.ppo_learner import slot_states
     from flatland_ma.envs.vector import BatchedParallelEnv
     from flatland_ma.policies.checkpoint import read_checkpoint, read_trainer_state
     from flatland_ma.policies.named import make_policy
@@ -479,7 +479,7 @@ def test_ppo_advantages_match_a_hand_computation():
     episode's last, whose value bootstraps), slot 1 terminates at step 0."""
     import torch
 
-    from baselines.ppo import gae
+    from baselines.ppo_learner import gae
 
     gamma, lam = 0.9, 0.5
     rewards = torch.tensor([[1.0, 2.0], [0.0, 0.0], [3.0, 1.0]])

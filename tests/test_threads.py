@@ -5,6 +5,8 @@ measured by ``flatland-ma bench``, not here)."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -94,3 +96,26 @@ def test_switching_kernels_mid_run_changes_no_observation(scenario):
         np.testing.assert_array_equal(out_a[0], out_b[0])
         np.testing.assert_array_equal(out_a[1], out_b[1])
     assert function.calls <= 3  # it went on switching to the end
+
+
+def _python(code: str) -> subprocess.CompletedProcess:
+    """``code`` in a fresh interpreter, without the suite's OMP_WAIT_POLICY."""
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    return subprocess.run(
+        [sys.executable, "-W", "always", "-c", code], env=env, capture_output=True, text=True
+    )
+
+
+def test_openmp_started_first_is_warned_about_and_flatland_first_is_not():
+    late = _python("import torch\nimport flatland_ma\n")
+    assert late.returncode == 0 and "OMP_WAIT_POLICY" in late.stderr
+    assert "RuntimeWarning" in late.stderr
+    early = _python(
+        "import flatland_ma\nimport torch\nimport os\nprint(os.environ['OMP_WAIT_POLICY'])"
+    )
+    assert early.returncode == 0 and "RuntimeWarning" not in early.stderr
+    assert early.stdout.strip() == "PASSIVE"
+    chosen = _python(
+        "import os\nos.environ['OMP_WAIT_POLICY'] = 'ACTIVE'\nimport torch, flatland_ma\n"
+    )
+    assert chosen.returncode == 0 and "RuntimeWarning" not in chosen.stderr

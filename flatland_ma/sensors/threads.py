@@ -22,13 +22,14 @@ threads ran at a sixth of their one-thread rate. Three things keep that from hap
 
 from __future__ import annotations
 
+import ctypes
 import math
 import os
 import time
+import warnings
 from collections.abc import Callable
+from contextlib import contextmanager
 from pathlib import Path
-
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
 def cgroup_cpus(root: Path = Path("/sys/fs/cgroup")) -> float | None:
@@ -59,16 +60,67 @@ def usable_cpus() -> int:
     return max(1, cpus)
 
 
+def openmp() -> ctypes.CDLL | None:
+    """The OpenMP runtime already loaded in this process (GNU's ``libgomp``, which numba's
+    OpenMP pool and torch share), or None."""
+    try:
+        return ctypes.CDLL("libgomp.so.1", mode=os.RTLD_NOLOAD | os.RTLD_GLOBAL)
+    except OSError:
+        return None
+
+
+@contextmanager
+def openmp_threads_kept():
+    """Leave OpenMP's thread count (its ``nthreads`` setting, which
+    ``torch.get_num_threads`` reads and ``torch.set_num_threads`` writes) as it was on
+    entry. Starting numba's OpenMP pool, or setting numba's thread count, sets OpenMP's too:
+    with one ``libgomp`` in the process, a learner that asked torch for one thread got
+    numba's count, two, from the first parallel ray kernel on. numba itself keeps its count
+    per thread and passes it with each launch, so it is unaffected."""
+    runtime = openmp()
+    before = runtime.omp_get_max_threads() if runtime is not None else None
+    try:
+        yield
+    finally:
+        if runtime is not None and before is not None:
+            runtime.omp_set_num_threads(before)
+
+
 def fit_threads() -> int:
     """Cap numba's threads to the usable CPUs (unless ``NUMBA_NUM_THREADS`` says how
-    many) and return the count in force."""
+    many) and return the count in force, starting numba's pool without changing the
+    thread count of OpenMP's other users (``openmp_threads_kept``)."""
     import numba
 
-    if "NUMBA_NUM_THREADS" not in os.environ:
-        wanted = min(numba.config.NUMBA_NUM_THREADS, usable_cpus())  # type: ignore[attr-defined]
-        if numba.get_num_threads() != wanted:
-            numba.set_num_threads(wanted)
-    return numba.get_num_threads()
+    with openmp_threads_kept():
+        if "NUMBA_NUM_THREADS" not in os.environ:
+            wanted = min(numba.config.NUMBA_NUM_THREADS, usable_cpus())  # type: ignore[attr-defined]
+            if numba.get_num_threads() != wanted:
+                numba.set_num_threads(wanted)
+        return numba.get_num_threads()
+
+
+def openmp_spins() -> bool:
+    """Whether OpenMP was started before ``flatland_ma`` could ask its idle threads to
+    sleep: a runtime already loaded when the package was imported, with no
+    ``OMP_WAIT_POLICY`` in the environment then. Its threads then spin after every
+    parallel region (torch's and the ray kernel's alike), and on a machine with few cores
+    a learner runs several times slower (SB3 on the batched env: 8x)."""
+    return STARTED_BEFORE_US
+
+
+STARTED_BEFORE_US = "OMP_WAIT_POLICY" not in os.environ and openmp() is not None
+"""Set when this module is first imported (``flatland_ma`` imports it first): see
+``openmp_spins``."""
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+SPINNING_WARNING = (
+    "OpenMP (loaded by torch or another library imported before flatland_ma) was started "
+    "without OMP_WAIT_POLICY, so its idle threads spin and a learner on flatland_ma can run "
+    "several times slower on a machine with few cores. Import flatland_ma before torch, or "
+    "set OMP_WAIT_POLICY=PASSIVE in the environment before Python starts."
+)
+if STARTED_BEFORE_US:
+    warnings.warn(SPINNING_WARNING, RuntimeWarning, stacklevel=2)
 
 
 class Chooser:

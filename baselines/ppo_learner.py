@@ -1,0 +1,333 @@
+"""The mechanics of ``baselines.ppo``: a rollout of every slot of a batched env, GAE, PPO's
+epochs over it, and collection overlapped with the update.
+
+Written for speed as well as for the maths, since the learner must keep up with the world:
+
+- observations are stored in the dtype the env gives them (a map of ``uint8`` stays
+  ``uint8``: four times less memory to write and read), and the network casts on reading;
+- the acting pass samples from the logits directly (``baselines.networks.Agent``), not
+  through ``torch.distributions``;
+- GAE is one compiled loop (numba) over the rollout;
+- freed memory stays with the process between minibatches (``keep_freed_memory``): glibc
+  otherwise returns the large activations' pages to the system after each one and takes
+  them back, page fault by page fault, for the next;
+- ``Overlapped`` collects the next rollout with a copy of the policy while the network
+  updates on the previous one, in a thread of its own (torch releases Python's lock while
+  it computes): a policy lag of one update, as APPO's and Sample Factory's.
+"""
+
+from __future__ import annotations
+
+import copy
+import ctypes
+import ctypes.util
+import threading
+import time
+
+import gymnasium
+import numba as nb
+import numpy as np
+import torch
+from torch import nn
+from torch.utils._pytree import tree_leaves, tree_map
+
+from baselines.networks import Agent
+
+
+def keep_freed_memory() -> bool:
+    """Ask glibc to keep freed memory for reuse: no trimming of the heap, and blocks up to
+    its largest threshold (32 MiB) from the heap rather than from fresh mappings. Returns
+    whether it was set (False off glibc)."""
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name)
+        mallopt = libc.mallopt
+    except (OSError, AttributeError, TypeError):
+        return False
+    M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
+    return bool(mallopt(M_TRIM_THRESHOLD, 1 << 30)) and bool(mallopt(M_MMAP_THRESHOLD, 1 << 25))
+
+
+@nb.njit(cache=True)
+def _gae(rewards, values, ends, stops, next_value, gamma, lam):  # pragma: no cover - compiled
+    steps, slots = rewards.shape
+    advantages = np.empty_like(rewards)
+    last = np.zeros(slots, dtype=rewards.dtype)
+    for t in range(steps - 1, -1, -1):
+        for s in range(slots):
+            following = next_value[s] if t == steps - 1 else values[t + 1, s]
+            delta = rewards[t, s] + gamma * following * (1.0 - stops[t, s]) - values[t, s]
+            last[s] = delta + gamma * lam * (1.0 - ends[t, s]) * last[s]
+            advantages[t, s] = last[s]
+    return advantages
+
+
+def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> torch.Tensor:
+    """Generalised advantage estimation per slot over a rollout of T steps:
+        delta_t = r_t + gamma V(s_{t+1}) (1 - terminated_t) - V(s_t)
+        A_t = delta_t + gamma lambda (1 - ended_t) A_{t+1}
+    where s_{t+1} is what step t returned: after a truncation, the episode's last
+    observation (NEXT_STEP autoreset), so the cut episode bootstraps from its value."""
+    arrays = (x.numpy() for x in (rewards, values, ends, stops, next_value))
+    return torch.from_numpy(_gae(*arrays, np.float32(gamma), np.float32(lam)))
+
+
+def update(
+    agent,
+    optimizer,
+    args,
+    acting,
+    observations,
+    actions,
+    logprobs,
+    advantages,
+    returns,
+    values,
+    penalty=None,
+    states=None,
+    generator: torch.Generator | None = None,
+) -> dict:
+    """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
+    mean losses. Clipped surrogate, clipped value loss, entropy bonus:
+        L = -min(ratio A, clip(ratio, 1 - eps, 1 + eps) A)
+            + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
+            - ent_coef * H [+ penalty()],   ratio = pi(a|s) / pi_old(a|s)
+    with V read from ``states`` where the critic is centralised. Minibatches are drawn
+    from ``generator`` (torch's global one if None)."""
+    used = acting.reshape(-1).nonzero().squeeze(1)
+    b_states = None if states is None else states.reshape(-1, states.shape[-1])
+    b_x = tree_map(lambda x: x.reshape(-1, *x.shape[2:]), observations)
+    b_actions, b_logprobs = actions.reshape(-1, actions.shape[-1]), logprobs.reshape(-1)
+    b_advantages, b_returns, b_values = (
+        advantages.reshape(-1),
+        returns.reshape(-1),
+        values.reshape(-1),
+    )
+    stats: dict[str, list[torch.Tensor]] = {}
+    for epoch in range(args.update_epochs):
+        order = used[torch.randperm(len(used), generator=generator)]
+        # num_minibatches parts of (nearly) equal size: no leftover part of one entry.
+        for index in order.tensor_split(args.num_minibatches):
+            x = tree_map(lambda x, index=index: x[index], b_x)
+            state = None if b_states is None else b_states[index]
+            _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
+            log_ratio = new_logprob - b_logprobs[index]
+            ratio = log_ratio.exp()
+            advantage = b_advantages[index]
+            advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
+            policy_loss = torch.max(
+                -advantage * ratio,
+                -advantage * ratio.clamp(1 - args.clip_coef, 1 + args.clip_coef),
+            ).mean()
+            clipped = b_values[index] + (new_value - b_values[index]).clamp(
+                -args.clip_coef, args.clip_coef
+            )
+            value_loss = (
+                0.5
+                * torch.max(
+                    (new_value - b_returns[index]).square(), (clipped - b_returns[index]).square()
+                ).mean()
+            )
+            loss = policy_loss + args.vf_coef * value_loss - args.ent_coef * entropy.mean()
+            if penalty is not None:  # e.g. EWC's pull towards earlier tasks' parameters
+                loss = loss + penalty()
+            optimizer.zero_grad(set_to_none=True)
+            loss.backward()
+            nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
+            optimizer.step()
+            if epoch == args.update_epochs - 1:
+                with torch.no_grad():
+                    for key, value in (
+                        ("losses/policy", policy_loss),
+                        ("losses/value", value_loss),
+                        ("losses/entropy", entropy.mean()),
+                        ("losses/approx_kl", ((ratio - 1) - log_ratio).mean()),
+                        (
+                            "losses/clip_fraction",
+                            ((ratio - 1).abs() > args.clip_coef).float().mean(),
+                        ),
+                    ):
+                        stats.setdefault(key, []).append(value.detach())
+    return {key: float(torch.stack(values).mean()) for key, values in stats.items()}
+
+
+class Rollout:
+    """T steps of every slot of a batched env: what the policy saw and did, and what came
+    of it; ``collect`` fills it, ``learn`` runs PPO's epochs over it."""
+
+    def __init__(self, agent: Agent, env, observation, steps: int):
+        T, slots = steps, env.num_slots
+        self.steps = steps
+        self.observations = tree_map(
+            lambda x: torch.zeros((T, *x.shape), dtype=torch.from_numpy(np.asarray(x)).dtype),
+            observation,
+        )
+        """The raw observations, as the env gives them (a dict of arrays for a Dict space),
+        in the env's own dtype."""
+        self.views = [tree_map(lambda x, t=t: x[t], self.observations) for t in range(T)]
+        """Step t's observations, as views."""
+        self.actions = torch.zeros((T, slots, len(agent.sizes)), dtype=torch.long)
+        self.discrete = isinstance(env.single_action_space, gymnasium.spaces.Discrete)
+        self.logprobs, self.rewards, self.values = (torch.zeros((T, slots)) for _ in range(3))
+        self.acting = torch.zeros((T, slots), dtype=torch.bool)
+        """Whether the env used the slot's action on that step."""
+        self.ends, self.stops = torch.zeros((T, slots)), torch.zeros((T, slots))
+        """Whether the slot's episode ended on that step (terminated or truncated), and
+        whether it terminated (no bootstrap)."""
+        self.next_acting = np.ones(slots, bool)
+        """Whether the env will use each slot's next action."""
+        self.states = torch.zeros((T, slots, agent.state_size)) if agent.state_size else None
+        """Each slot's critic input (``slot_states``) when the critic is centralised."""
+        self.next_value = torch.zeros(slots)
+        """The value of what the rollout's last step returned, for GAE's bootstrap."""
+        self.env_seconds = 0.0
+        self.generator: torch.Generator | None = None
+        """Where the acting pass draws its actions from (torch's global one if None)."""
+
+    def collect(
+        self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
+    ):
+        """Act for ``steps`` steps from ``observation``; after each,
+        ``after_step(reward, terminated, done, infos, acted)`` with ``acted`` the number
+        of slots whose action the env used. The rollout keeps
+        ``learn_from(reward, terminated) * reward_scale`` (the reward itself when
+        ``learn_from`` is None). Returns the last observation."""
+        leaves = tree_leaves(self.observations)
+        for t in range(self.steps):
+            for stored, x in zip(leaves, tree_leaves(observation)):
+                stored[t].copy_(torch.from_numpy(x))
+            self.acting[t] = torch.from_numpy(self.next_acting)
+            state = None
+            if self.states is not None:
+                self.states[t] = state = torch.from_numpy(slot_states(env))
+            with torch.no_grad():
+                action, logprob, _, value = agent.act(
+                    self.views[t], state=state, generator=self.generator
+                )
+            self.actions[t], self.logprobs[t], self.values[t] = action, logprob, value
+            tick = time.perf_counter()
+            sent = action[:, 0] if self.discrete else action
+            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
+            self.env_seconds += time.perf_counter() - tick
+            done = terminated | truncated
+            learnt = reward if learn_from is None else learn_from(reward, terminated)
+            self.rewards[t] = torch.from_numpy(learnt * reward_scale)
+            self.ends[t] = torch.from_numpy(done)
+            self.stops[t] = torch.from_numpy(terminated)
+            after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
+            # The env uses a slot's action next step unless it just finished or was inert.
+            self.next_acting = infos["active"] & ~done
+        next_state = None if self.states is None else torch.from_numpy(slot_states(env))
+        with torch.no_grad():
+            self.next_value = agent.value(tree_map(torch.from_numpy, observation), next_state)
+        return observation
+
+    def learn(self, agent: Agent, optimizer, args, penalty=None, generator=None) -> dict:
+        """GAE, bootstrapped from the value of what the rollout's last step returned (by
+        the policy that acted), then PPO's epochs (``update``) with minibatches drawn from
+        ``generator``, and ``penalty()`` added to the loss if given."""
+        advantages = gae(
+            self.rewards,
+            self.values,
+            self.ends,
+            self.stops,
+            self.next_value,
+            args.gamma,
+            args.gae_lambda,
+        )
+        return update(
+            agent,
+            optimizer,
+            args,
+            self.acting,
+            self.observations,
+            self.actions,
+            self.logprobs,
+            advantages,
+            advantages + self.values,
+            self.values,
+            penalty,
+            self.states,
+            generator,
+        )
+
+
+class Overlapped:
+    """Collection and update at once: while ``agent`` learns from one rollout in a thread
+    of its own, ``collect`` fills the other with ``behaviour``, a copy of the parameters
+    from before that update (a lag of one update). The draws of actions and of minibatches
+    come from generators of their own, so a run is the same whatever the threads'
+    timing."""
+
+    def __init__(self, agent: Agent, env, observation, steps: int, seed: int):
+        self.behaviour = copy.deepcopy(agent)
+        self.behaviour.requires_grad_(False)
+        self.rollouts = [Rollout(agent, env, observation, steps) for _ in range(2)]
+        self.acting_generator = torch.Generator().manual_seed(seed)
+        self.update_generator = torch.Generator().manual_seed(seed + 1)
+        for rollout in self.rollouts:
+            rollout.generator = self.acting_generator
+        self.turn = 0
+        self.pending: threading.Thread | None = None
+        self.stats: dict = {}
+        self.error: BaseException | None = None
+        self.update_seconds = 0.0
+
+    @property
+    def env_seconds(self) -> float:
+        return sum(rollout.env_seconds for rollout in self.rollouts)
+
+    def collect(self, env, observation, reward_scale, after_step, learn_from=None):
+        """The next rollout, from ``behaviour``, while the previous one's update runs."""
+        rollout = self.rollouts[self.turn]
+        rollout.next_acting = self.rollouts[1 - self.turn].next_acting
+        return rollout.collect(
+            self.behaviour, env, observation, reward_scale, after_step, learn_from
+        )
+
+    @property
+    def next_acting(self) -> np.ndarray:
+        """Whether the env will use each slot's next action (after the last rollout)."""
+        return self.rollouts[1 - self.turn].next_acting
+
+    def learn(self, agent: Agent, optimizer, args, penalty=None) -> dict:
+        """Wait for the update under way, start one on the rollout just collected, and
+        return the statistics of the one that finished (empty at the first call)."""
+        self.wait()
+        stats, self.stats = self.stats, {}
+        rollout = self.rollouts[self.turn]
+        self.turn = 1 - self.turn
+
+        def run() -> None:
+            tick = time.thread_time()
+            try:
+                self.stats = rollout.learn(
+                    agent, optimizer, args, penalty=penalty, generator=self.update_generator
+                )
+            except BaseException as error:  # raised again in the collecting thread
+                self.error = error
+            self.update_seconds += time.thread_time() - tick
+
+        # The next rollout acts with the parameters from before this update.
+        self.behaviour.load_state_dict(agent.state_dict())
+        self.pending = threading.Thread(target=run, name="ppo-update", daemon=True)
+        self.pending.start()
+        return stats
+
+    def wait(self) -> None:
+        """Let the update under way finish (raising what it raised)."""
+        if self.pending is not None:
+            self.pending.join()
+            self.pending = None
+        if self.error is not None:
+            error, self.error = self.error, None
+            raise error
+
+
+def slot_states(env) -> np.ndarray:
+    """Each slot's input to a centralised critic: its world's global state
+    (``env.state()``, one row per world) and a one-hot of which agent of the world it is."""
+    m = env.agents_per_world
+    states = np.repeat(env.state(), m, axis=0)
+    who = np.tile(np.eye(m, dtype=np.float32), (env.num_worlds, 1))
+    return np.concatenate([states, who], axis=1, dtype=np.float32)
