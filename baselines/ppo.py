@@ -269,17 +269,20 @@ def main(args: Args) -> dict:
             began.append(global_step)
             print(f"step={global_step} curriculum stage {stages[stage].name}", flush=True)
         lr = args.learning_rate * (1 - (iteration - 1) / iterations)
-        if args.anneal_lr:
-            optimizer.param_groups[0]["lr"] = lr
         if overlapped is None:
             observation = rollout.collect(
                 agent, env, observation, args.reward_scale, after_step, learn_from
             )
-            stats = rollout.learn(agent, optimizer, args)
         else:
             observation = overlapped.collect(
                 env, observation, args.reward_scale, after_step, learn_from
             )
+            overlapped.wait()  # the update under way keeps its own learning rate
+        if args.anneal_lr:
+            optimizer.param_groups[0]["lr"] = lr
+        if overlapped is None:
+            stats = rollout.learn(agent, optimizer, args)
+        else:
             stats = overlapped.learn(agent, optimizer, args)
         sps = global_step / (time.perf_counter() - start)
         for key, value in {
