@@ -159,6 +159,7 @@ class Play:
             "step": self.env.num_steps,
             "seed": s.seed + s.episode,
             "agent": s.agent,
+            "said": list(s.maps[s.agent].said),
             "score": tally.score if tally else 0.0,
             "episode": s.episode + 1,
             "returns": dict(s.returns),
