@@ -286,10 +286,12 @@ def test_the_display_check_follows_the_environment(monkeypatch):
     assert missing_display() is None
 
 
-def test_a_bad_override_or_script_fails_with_a_message(capsys):
+def test_a_bad_override_or_script_fails_with_a_message(capsys, tmp_path):
     assert main(["play", "fruits_poisons", "--keys", "up*0", "--fps", "0"]) == 2
     assert "fewer than one frame" in capsys.readouterr().err
-    assert main(["play", "fruits_poisons_multi", "--sensors", "lidar", "--keys", "up"]) == 2
-    assert "camera" in capsys.readouterr().err  # greedy others need one: use --others
+    blind = ["play", "fruits_poisons_multi", "--sensors", "lidar", "--keys", "up", "--fps", "0"]
+    assert main([*blind, "--others", "greedy"]) == 2
+    assert "camera" in capsys.readouterr().err  # greedy others need one
+    assert main([*blind, "--scores", str(tmp_path / "s.csv")]) == 0  # each a policy that suits
     assert main(["play", "fruits_poisons", "--sensors", "sonar", "--keys", "up"]) == 2
     assert "sonar" in capsys.readouterr().err
