@@ -61,9 +61,7 @@ def make_policy(name: str, env: FlatlandParallelEnv, agent: str, seed: int | Non
         raise ValueError(
             f"no policy {name!r}: one of {', '.join(SHIPPED)}, or a checkpoint file (.safetensors)"
         )
-    policy = CheckpointPolicy(name, seed=seed)
-    policy.bind(env, agent)
-    return policy
+    return CheckpointPolicy.for_agent(name, env, agent, seed=seed)
 
 
 FALLBACKS = ("greedy", "sniffer", "planner", "random")
