@@ -65,16 +65,20 @@ class Hub:
         self.limits = workspace.config.limits
         self.running = 0
         self.recordings: dict[str, Recording] = {}
+        self.connections: set[Connection] = set()
+        """The open connections (each one's state is bounded; see the module)."""
 
     async def serve(self, ws: WebSocket) -> None:
         await ws.accept()
         key = secrets.token_urlsafe(12)
         connection = Connection(self, ws, key)
+        self.connections.add(connection)
         try:
             await connection.run()
         except WebSocketDisconnect:  # the page left while a frame was on its way
             pass
         finally:
+            self.connections.discard(connection)
             if connection.slot:
                 self.running -= 1
             self.recordings.pop(key, None)
