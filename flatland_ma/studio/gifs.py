@@ -1,9 +1,10 @@
 """GIFs of an episode's latest frames, made in the background with their progress.
 
 A page asks for one (``POST /api/episodes/K/gif``) and gets a job at once; the frames it
-had been sent are copied then, scaled down to ``limits.gif_width`` at most, given one
-palette and written with each frame shown as long as the page showed it (the speed the
-viewer chose at the time, within [``MIN_FRAME_MS``, ``MAX_FRAME_MS``]). The page polls
+had been sent are copied then, scaled down to ``limits.gif_width`` at most and further
+so that all of them hold at most ``PIXEL_BUDGET`` pixels (a GIF of a few MB whatever the
+length), given one palette and written with each frame shown as long as the page showed
+it (the speed the viewer chose at the time, within [``MIN_FRAME_MS``, ``MAX_FRAME_MS``]). The page polls
 the job (``GET /api/gifs/J``: frames done of the total) and downloads the file when it is
 ready (``GET /api/gifs/J/file``). At most ``limits.gifs`` jobs are kept: the oldest
 finished one is forgotten first; when every kept job is still running, one more is
@@ -29,6 +30,10 @@ MIN_FRAME_MS = 20
 MAX_FRAME_MS = 10_000
 """The longest (a frame of an episode watched at 0.001 frames a second is shown this long)."""
 PALETTE_SAMPLES = 8
+PIXEL_BUDGET = 24_000_000
+"""Pixels of every frame of a GIF together: 205 frames of a four-agent world come out
+about 300 pixels wide and 4 MB."""
+MIN_WIDTH = 160
 
 
 @dataclass
@@ -62,26 +67,35 @@ def frame_ms(fps: float) -> int:
     return int(min(MAX_FRAME_MS, max(MIN_FRAME_MS, round(1000.0 / fps))))
 
 
+def gif_size(width: int, height: int, frames: int, widest: int) -> tuple[int, int]:
+    """The size a GIF's frames are scaled to: at most ``widest`` wide, all ``frames`` of
+    them within ``PIXEL_BUDGET`` pixels (never below ``MIN_WIDTH``), the aspect kept."""
+    budget = (PIXEL_BUDGET / max(1, frames) * width / height) ** 0.5
+    scaled = max(MIN_WIDTH, min(widest, width, int(budget)))
+    return scaled, max(1, round(height * scaled / width))
+
+
+def _picture(data: bytes, size: tuple[int, int]) -> Image.Image:
+    with Image.open(io.BytesIO(data)) as picture:
+        image = picture.convert("RGB")
+    if image.size != size:
+        image = image.resize(size, Image.Resampling.BILINEAR, reducing_gap=2.0)
+    return image
+
+
 def encode_gif(frames: list[tuple[bytes, float]], width: int, job: GifJob | None = None) -> bytes:
     """A looping GIF of encoded pictures, each with the frame rate it was shown at,
-    scaled to at most ``width`` pixels wide; ``job.done`` counts the frames done."""
-    images = []
-    for data, _ in frames:
-        with Image.open(io.BytesIO(data)) as picture:
-            image = picture.convert("RGB")
-        if image.width > width:
-            height = max(1, round(image.height * width / image.width))
-            image = image.resize((width, height), Image.Resampling.LANCZOS)
-        images.append(image)
-    step = max(1, len(images) // PALETTE_SAMPLES)
-    sample = [np.asarray(image) for image in images[::step]]
-    widest = max(a.shape[1] for a in sample)
-    padded = [np.pad(a, ((0, 0), (0, widest - a.shape[1]), (0, 0))) for a in sample]
-    palette = Image.fromarray(np.concatenate(padded, axis=0)).quantize(
+    scaled by ``gif_size`` (at most ``width`` wide); ``job.done`` counts the frames done."""
+    with Image.open(io.BytesIO(frames[0][0])) as first:
+        size = gif_size(first.width, first.height, len(frames), width)
+    step = max(1, len(frames) // PALETTE_SAMPLES)
+    sample = [np.asarray(_picture(data, size)) for data, _ in frames[::step]]
+    palette = Image.fromarray(np.concatenate(sample, axis=0)).quantize(
         GIF_COLORS, method=Image.Quantize.MEDIANCUT
     )
     quantized = []
-    for image in images:
+    for data, _ in frames:
+        image = _picture(data, size)
         quantized.append(image.quantize(palette=palette, dither=Image.Dither.NONE))
         if job is not None:
             job.done += 1
