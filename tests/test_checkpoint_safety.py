@@ -373,8 +373,10 @@ def test_described_shapes_are_checked_before_any_tensor_is_made(tmp_path, good, 
     wide = "Box(0.0, 1.0, (2048, 2048), float32)"
     rewrite_description(
         other,
-        lambda d: d.update(observation_space=wide)
-        or d["spaces"]["observation"].update(shape=[2048, 2048]),
+        lambda d: (
+            d.update(observation_space=wide)
+            or d["spaces"]["observation"].update(shape=[2048, 2048])
+        ),
     )
 
     def no_tensor(*args, **kwargs):
@@ -387,7 +389,9 @@ def test_described_shapes_are_checked_before_any_tensor_is_made(tmp_path, good, 
     for load in (read_checkpoint, CheckpointPolicy, lambda p: make_policy(str(p), ENV, "agent_0")):
         with pytest.raises(ValueError, match="an observation of 4,294,967,296 values"):
             load(huge)
-    with pytest.raises(ValueError, match=r"trained for the observation space Box\(0.0, 1.0, \(2048"):
+    with pytest.raises(
+        ValueError, match=r"trained for the observation space Box\(0.0, 1.0, \(2048"
+    ):
         make_policy(str(other), ENV, "agent_0")
     monkeypatch.undo()
     with pytest.raises(ValueError, match="the described network needs"):

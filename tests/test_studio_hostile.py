@@ -194,7 +194,9 @@ def test_lanes_are_remembered_for_a_bounded_number_of_clients():
     with client(StudioConfig(limits=Limits(clients=4))) as c:
         for k in range(12):
             headers = {"x-studio-client": f"client-{k}"}
-            assert c.post("/api/validate", json={"text": FRUITS}, headers=headers).status_code == 200
+            assert (
+                c.post("/api/validate", json={"text": FRUITS}, headers=headers).status_code == 200
+            )
         assert len(c.app.state.api.lanes) == 4  # type: ignore[attr-defined]
 
 
@@ -216,7 +218,10 @@ def test_bad_lengths_and_folder_numbers_get_4xx_json_errors():
             answer = c.post(
                 "/api/validate",
                 content=b'{"text": ""}',
-                headers={"content-length": length.encode("latin-1"), "content-type": "application/json"},
+                headers={
+                    "content-length": length.encode("latin-1"),
+                    "content-type": "application/json",
+                },
             )
             assert 400 <= answer.status_code < 500 and "error" in answer.json(), length
         answer = c.get("/api/scenario", params={"ref": "²:x.yaml"})

@@ -67,9 +67,7 @@ def test_every_shipped_scenario_watches_and_plays_with_its_offered_policies(stud
 
 
 @pytest.mark.parametrize("scenario", ["blind_fetch", "scent_rooms", "signal_maps", "signal_rooms"])
-def test_a_policy_that_cannot_drive_an_agent_is_refused_and_the_episode_goes_on(
-    studio, scenario
-):
+def test_a_policy_that_cannot_drive_an_agent_is_refused_and_the_episode_goes_on(studio, scenario):
     agents = studio.get("/api/policies", params={"ref": scenario}).json()["agents"]
     blind = next(e["agent"] for e in agents if "greedy" not in e["policies"])
     with studio.websocket_connect("/api/episode", headers={"host": HOST}) as ws:

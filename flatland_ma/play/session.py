@@ -64,9 +64,7 @@ class Session:
     """Whether the player left (Esc, or closing the window) before the last episode ended."""
 
     def __post_init__(self):
-        if self.others is not None and self.others not in OTHERS and not is_checkpoint(
-            self.others
-        ):
+        if self.others is not None and self.others not in OTHERS and not is_checkpoint(self.others):
             raise ValueError(
                 f"no policy {self.others!r} for the others; one of {', '.join(OTHERS)}, "
                 "or a checkpoint file (.safetensors)"

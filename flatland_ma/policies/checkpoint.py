@@ -243,9 +243,7 @@ def check_spaces(path: str | Path, description: dict, observation_space, action_
     for what, space in (("observation", observation_space), ("action", action_space)):
         saved = description[f"{what}_space"]
         if str(space) != saved or space_description(space) != description["spaces"][what]:
-            raise ValueError(
-                f"{path}: trained for the {what} space {saved}, the agent has {space}"
-            )
+            raise ValueError(f"{path}: trained for the {what} space {saved}, the agent has {space}")
 
 
 def read_trainer_state(path: str | Path) -> dict:

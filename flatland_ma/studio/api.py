@@ -188,7 +188,9 @@ class Api:
         text, folder = self._text(await self.body(request))
         name = str(request.query_params.get("name", "<editor>"))[:200]
         try:
-            spec = await self.heavy(request, "edit", self.workspace.spec_of_text, text, name, folder)
+            spec = await self.heavy(
+                request, "edit", self.workspace.spec_of_text, text, name, folder
+            )
         except Refused as refused:
             if refused.problems is None:
                 raise

@@ -4,11 +4,11 @@ A page asks for one (``POST /api/episodes/K/gif``) and gets a job at once; the f
 had been sent are copied then, scaled down to ``limits.gif_width`` at most and further
 so that all of them hold at most ``PIXEL_BUDGET`` pixels (a GIF of a few MB whatever the
 length), given one palette and written with each frame shown as long as the page showed
-it (the speed the viewer chose at the time, within [``MIN_FRAME_MS``, ``MAX_FRAME_MS``]). The page polls
-the job (``GET /api/gifs/J``: frames done of the total) and downloads the file when it is
-ready (``GET /api/gifs/J/file``). At most ``limits.gifs`` jobs are kept: the oldest
-finished one is forgotten first; when every kept job is still running, one more is
-refused.
+it (the speed the viewer chose at the time, within [``MIN_FRAME_MS``, ``MAX_FRAME_MS``]).
+The page polls the job (``GET /api/gifs/J``: frames done of the total) and downloads
+the file when it is ready (``GET /api/gifs/J/file``). At most ``limits.gifs`` jobs are
+kept: the oldest finished one is forgotten first; when every kept job is still running,
+one more is refused.
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from flatland_ma.play.keys import SCRIPT_KEYS, Keys
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.studio import messages
-from flatland_ma.studio.episodes import PolicyRefused, Play, Watch, resolve_policy
+from flatland_ma.studio.episodes import Play, PolicyRefused, Watch, resolve_policy
 from flatland_ma.studio.folders import FolderError
 from flatland_ma.studio.scenarios import encode, problem_json
 from flatland_ma.studio.workspace import Workspace
@@ -149,7 +149,9 @@ class Connection:
                         message = self.inbox.get_nowait()
                 except asyncio.TimeoutError:
                     if loop.time() - self.heard >= idle:
-                        await _end(self.ws, CLOSE_IDLE, f"closed: the page said nothing for {idle:g} s")
+                        await _end(
+                            self.ws, CLOSE_IDLE, f"closed: the page said nothing for {idle:g} s"
+                        )
                         return
                     if ticking:
                         next_tick = loop.time() + 1.0 / self.fps

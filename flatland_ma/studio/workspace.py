@@ -35,7 +35,6 @@ from flatland_ma.studio.scenarios import (
     spec_from_text,
 )
 
-
 CHECKPOINT_PREFIX = "checkpoint:"
 """A policy named ``checkpoint:NAME`` plays the file NAME of the checkpoint folder."""
 MAX_DESCRIPTIONS = 1024
@@ -48,9 +47,7 @@ class Workspace:
     def __init__(self, config: StudioConfig):
         self.config = config
         self._pictures: collections.OrderedDict[tuple, bytes] = collections.OrderedDict()
-        self._descriptions: collections.OrderedDict[tuple, dict | None] = (
-            collections.OrderedDict()
-        )
+        self._descriptions: collections.OrderedDict[tuple, dict | None] = collections.OrderedDict()
         self._lock = threading.Lock()
         roots: list[tuple[str, str]] = []
         for index, folder in enumerate(config.folders):
