@@ -136,9 +136,12 @@ class Workspace:
             summary = Summary.of(self.spec(ref), name if folder is None else None)
         except ScenarioError as err:
             problems = [problem_json(p) for p in err.problems]
-            return {**card, "error": str(err), "problems": problems}
+            for problem in problems:
+                problem["source"] = self.public(str(problem["source"]))
+                problem["message"] = self.public(str(problem["message"]))
+            return {**card, "error": self.public(str(err)), "problems": problems}
         except FolderError as err:
-            return {**card, "error": str(err), "problems": []}
+            return {**card, "error": self.public(str(err)), "problems": []}
         return {**card, **summary.__dict__}
 
     def checkpoints(self) -> list[str]:
