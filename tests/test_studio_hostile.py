@@ -319,6 +319,49 @@ def test_an_episode_that_fails_tells_the_page_why_before_the_close(monkeypatch):
         assert closed.value.code == 1011 and "fell over" in closed.value.reason
 
 
+def test_a_checkpoint_describing_a_huge_observation_is_refused_from_its_description(
+    tmp_path, monkeypatch
+):
+    """0.6 MB of weights could describe a 16,384 x 16,384 observation; the loader probed
+    the network with one such observation (1 GB) before comparing it with the agent's."""
+    torch = pytest.importorskip("torch")
+    pytest.importorskip("safetensors")
+    from baselines.networks import Agent
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+    from flatland_ma.policies.checkpoint import write_checkpoint
+    from tests.checkpoint_helpers import rewrite_description
+
+    env = FlatlandParallelEnv("fruits_poisons")
+    spaces = {"observation_space": env.observation_space("agent_0")}
+    spaces["action_space"] = env.action_space("agent_0")
+    runs = tmp_path / "runs"
+    good = write_checkpoint(
+        runs / "good.safetensors", Agent(**spaces, hidden=8), scenario="fruits_poisons", **spaces
+    )
+    huge = runs / "huge.safetensors"
+    huge.write_bytes(good.read_bytes())
+    rewrite_description(huge, lambda d: d["spaces"]["observation"].update(shape=[16384, 16384]))
+
+    def no_tensor(*args, **kwargs):
+        raise AssertionError("a tensor was made")
+
+    monkeypatch.setattr(torch, "zeros", no_tensor)
+    with client(StudioConfig(checkpoints=runs)) as c:
+        offered = c.get("/api/policies", params={"ref": "fruits_poisons"}).json()["agents"]
+        assert "checkpoint:good.safetensors" in offered[0]["policies"]
+        assert "checkpoint:huge.safetensors" not in offered[0]["policies"]
+        with c.websocket_connect("/api/episode", headers={"host": HOST}) as ws:
+            policies = {"agent_0": "checkpoint:huge.safetensors"}
+            ws.send_json({"type": "start", "scenario": "fruits_poisons", "policies": policies})
+            refused = ws.receive_json()
+            assert refused["agent"] == "agent_0"
+            assert "an observation of 268,435,456 values" in refused["message"]
+            monkeypatch.undo()  # a checkpoint that fits is probed with one observation
+            policies = {"agent_0": "checkpoint:good.safetensors"}
+            ws.send_json({"type": "start", "scenario": "fruits_poisons", "policies": policies})
+            assert ws.receive_json()["type"] == "ready"
+
+
 def test_messages_name_files_as_the_pages_do_not_by_server_paths(tmp_path):
     runs = tmp_path / "runs" / "ppo"
     runs.mkdir(parents=True)
