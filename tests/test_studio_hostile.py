@@ -190,6 +190,25 @@ def test_a_pages_stale_request_is_superseded_by_its_newer_one(held_previews):
         assert len(api.lanes) <= api.lanes.clients
 
 
+def test_a_job_whose_client_has_left_by_its_turn_does_not_run():
+    from flatland_ma.studio.lanes import Lanes, Superseded
+
+    ran = []
+
+    async def left() -> bool:
+        return False
+
+    async def both():
+        lanes = Lanes(threads=1, clients=4)
+        with pytest.raises(Superseded):
+            await lanes.run("page", ran.append, "gone", wanted=left)
+        await lanes.run("page", ran.append, "here")
+        return lanes
+
+    lanes = asyncio.run(both())
+    assert ran == ["here"] and lanes.superseded == 1 and lanes.ran == 1
+
+
 def test_lanes_are_remembered_for_a_bounded_number_of_clients():
     with client(StudioConfig(limits=Limits(clients=4))) as c:
         for k in range(12):

@@ -100,8 +100,12 @@ class Api:
     async def heavy(self, request: Request, kind: str, function, *args):
         """A heavy job of ``kind`` in the client's lane (409 if a newer one replaced it)."""
         client = client_of(request.headers, request.client) + "/" + kind
+
+        async def wanted() -> bool:
+            return not await request.is_disconnected()
+
         try:
-            return await self.lanes.run(client, function, *args)
+            return await self.lanes.run(client, function, *args, wanted=wanted)
         except Superseded:
             raise Refused(409, "superseded by a newer request from the same page") from None
         except (ScenarioError, FolderError) as err:

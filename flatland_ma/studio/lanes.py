@@ -6,16 +6,17 @@ without this, the jobs of one typing burst would queue up and every other page w
 behind them. Each client (the ``X-Studio-Client`` header the pages send, else its
 address) has a lane: its running job finishes (a thread cannot be stopped), the newest
 request waits for it, and any request that was waiting before is answered at once as
-superseded (409). Heavy jobs of all clients share ``limits.work`` threads; the reads have
-their own (``Api``). Lanes are remembered for ``limits.clients`` clients, the least
-recently seen forgotten first (an idle lane holds nothing).
+superseded (409); a request whose client has left by its turn does not run either. Heavy
+jobs of all clients share ``limits.work`` threads; the reads have their own (``Api``).
+Lanes are remembered for ``limits.clients`` clients, the least recently seen forgotten
+first (an idle lane holds nothing).
 """
 
 from __future__ import annotations
 
 import asyncio
 import collections
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -69,9 +70,16 @@ class Lanes:
     def __len__(self) -> int:
         return len(self._lanes)
 
-    async def run(self, client: str, function: Callable[..., Any], *args) -> Any:
+    async def run(
+        self,
+        client: str,
+        function: Callable[..., Any],
+        *args,
+        wanted: Callable[[], Awaitable[bool]] | None = None,
+    ) -> Any:
         """``function(*args)`` in a worker thread once ``client``'s lane is free;
-        ``Superseded`` if a newer request of the client came first."""
+        ``Superseded`` if a newer request of the client came first, or if ``wanted()``
+        says, when its turn comes, that nobody waits for it any more."""
         lane = self._lane(client)
         mine = _Ticket()
         async with lane.changed:
@@ -85,6 +93,9 @@ class Lanes:
                 raise Superseded()
             lane.busy, lane.waiting = True, None
         try:
+            if wanted is not None and not await wanted():
+                self.superseded += 1
+                raise Superseded()
             result = await anyio.to_thread.run_sync(function, *args, limiter=self.limiter)
             self.ran += 1
             return result
