@@ -32,6 +32,8 @@ from pathlib import Path
 import websockets
 
 ROOT = Path(__file__).resolve().parent.parent
+ALIVE_SECONDS = 20.0
+"""How often a watcher says it is there (the studio ends episodes of silent pages)."""
 
 
 def free_port() -> int:
@@ -71,8 +73,12 @@ async def watch(url: str, scenario: str, seconds: float, index: int, fps: float)
         start = {"type": "start", "scenario": scenario, "seed": seed, "fps": fps}
         await ws.send(json.dumps(start))
         began = time.monotonic()
+        said = began
         playing = False
         while time.monotonic() - began < seconds:
+            if time.monotonic() - said > ALIVE_SECONDS:  # as the pages do
+                await ws.send(json.dumps({"type": "alive"}))
+                said = time.monotonic()
             message = await ws.recv()
             if isinstance(message, bytes):
                 continue

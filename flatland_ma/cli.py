@@ -115,10 +115,12 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument(
         "--others",
         type=options.policy,
-        default="greedy",
+        default=None,
         metavar="POLICY",
         help="the policy of the agents you do not drive: greedy, random, planner, carrier, "
-        "sniffer, idle, or a checkpoint file saved by the baselines (default: greedy)",
+        "sniffer, idle, or a checkpoint file saved by the baselines (default: each agent's "
+        "scenario's reference solver where it suits the agent, else greedy, sniffer, planner "
+        "or random, the first that does)",
     )
     play.add_argument(
         "--episodes",

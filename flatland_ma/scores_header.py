@@ -13,28 +13,17 @@ from __future__ import annotations
 import argparse
 
 from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.policies import named
 from flatland_ma.policies.named import make_policy
 from flatland_ma.policies.rollout import evaluate
 
 
 def solver_names(env: FlatlandParallelEnv) -> dict[str, str]:
-    """The policy the scenario's reference solver gives each agent, by name."""
-    spec = env.spec
-    reference = spec.reference
-    if reference is None:
+    """The policy the scenario's reference solver gives each agent, by name
+    (``ValueError`` if it names none)."""
+    if env.spec.reference is None:
         raise ValueError("the scenario has no 'reference' solver")
-    names = {}
-    for i, agent in enumerate(env.possible_agents):
-        team = spec.team_of(i)
-        first = team is None or team is spec.teams[0]
-        if reference.solver == "teams":
-            assert reference.teams is not None and team is not None
-            names[agent] = reference.teams[spec.teams.index(team)]
-        elif reference.solver == "carrier_vs_random":
-            names[agent] = "carrier" if first else "random"
-        else:
-            names[agent] = reference.solver
-    return names
+    return named.solver_names(env)
 
 
 def scores_line(name: str, episodes: int = 20) -> str:

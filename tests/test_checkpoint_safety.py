@@ -278,6 +278,21 @@ DESCRIPTIONS = {
         lambda d: d["spaces"]["observation"].update(shape=[10**9, 4]),
         "spaces.observation.Box.shape.0",
     ),
+    "observation_of_too_many_values": (
+        lambda d: d["spaces"]["observation"].update(shape=[16384, 16384]),
+        "an observation of 268,435,456 values; a checkpoint's network reads at most 4,194,304",
+    ),
+    "dict_entries_of_too_many_values_together": (
+        lambda d: d["spaces"].update(
+            observation={
+                "type": "Dict",
+                "spaces": {
+                    k: {"type": "Box", "shape": [2048, 1025], "dtype": "float32"} for k in "ab"
+                },
+            }
+        ),
+        "an observation of 4,198,400 values",
+    ),
     "optimizer_names_a_missing_tensor": (
         _set("optimizer", {"tensor": "optimizer/nothing"}),
         "optimizer: 'tensor'",
@@ -344,6 +359,43 @@ def test_tensors_that_do_not_fit_the_network_get_a_located_error(tmp_path, good,
     with pytest.raises(ValueError) as refused:
         CheckpointPolicy(path)
     assert str(path) in str(refused.value) and expected in str(refused.value)
+
+
+def test_described_shapes_are_checked_before_any_tensor_is_made(tmp_path, good, monkeypatch):
+    """A small file may describe a huge observation: it is refused from its description
+    alone, and a scenario's agent refuses another's spaces before the weights are read
+    (the loader would otherwise probe the network with an observation of that shape)."""
+    huge = tmp_path / "huge.safetensors"
+    huge.write_bytes(good.read_bytes())
+    rewrite_description(huge, lambda d: d["spaces"]["observation"].update(shape=[65536, 65536]))
+    other = tmp_path / "other.safetensors"
+    other.write_bytes(good.read_bytes())
+    wide = "Box(0.0, 1.0, (2048, 2048), float32)"
+    rewrite_description(
+        other,
+        lambda d: (
+            d.update(observation_space=wide)
+            or d["spaces"]["observation"].update(shape=[2048, 2048])
+        ),
+    )
+
+    def no_tensor(*args, **kwargs):
+        raise AssertionError("a tensor was made")
+
+    import safetensors.torch
+
+    monkeypatch.setattr(safetensors.torch, "load", no_tensor)
+    monkeypatch.setattr(torch, "zeros", no_tensor)
+    for load in (read_checkpoint, CheckpointPolicy, lambda p: make_policy(str(p), ENV, "agent_0")):
+        with pytest.raises(ValueError, match="an observation of 4,294,967,296 values"):
+            load(huge)
+    with pytest.raises(
+        ValueError, match=r"trained for the observation space Box\(0.0, 1.0, \(2048"
+    ):
+        make_policy(str(other), ENV, "agent_0")
+    monkeypatch.undo()
+    with pytest.raises(ValueError, match="the described network needs"):
+        CheckpointPolicy(other)  # no scenario to compare with: its weights are read, then
 
 
 def test_paths_that_are_not_regular_files_are_refused_before_reading(tmp_path, good):

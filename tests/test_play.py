@@ -188,6 +188,40 @@ def test_an_unknown_policy_for_the_others_is_refused():
 # -- the window and the command --------------------------------------------------------------
 
 
+def test_a_speaking_agent_chooses_its_words_by_key_and_says_them_with_each_action():
+    env = flatland_ma.parallel_env("signal_maps")
+    agent = env.possible_agents[0]
+    space = env.action_space(agent)  # MultiDiscrete([moves, words])
+    keys = KeyMap.for_space(env.action_names(agent), space)
+    assert keys.keys == {"up", "left", "right", "m"}
+    np.testing.assert_array_equal(keys.action({"up"}), [0, 0])
+    assert keys.press({"m"}) and keys.action({"m"}) is None  # choosing a word is no step
+    np.testing.assert_array_equal(keys.action({"left"}), [1, 1])
+    assert space.contains(keys.action({"left"}))
+    keys.press({"m"})  # round the vocabulary of two
+    np.testing.assert_array_equal(keys.action({"right"}), [2, 0])
+    assert "m: next word of say_0" in keys.help()
+
+
+def test_a_continuous_speaker_says_the_middle_of_each_words_bin():
+    env = flatland_ma.parallel_env(
+        "fruits_poisons", channel={"tokens": 2, "vocabulary": 4}, agent={"actions": "continuous"}
+    )
+    agent = env.possible_agents[0]
+    keys = KeyMap.for_space(env.action_names(agent), env.action_space(agent), 4)
+    keys.press({"m"})
+    keys.press({"k", "m"})
+    action = keys.action({"up"})
+    np.testing.assert_allclose(action, [1, 0, 0, 0.25, -0.25])  # words 2 and 1 of 4
+    assert env.action_space(agent).contains(action)
+
+
+@pytest.mark.parametrize("scenario", ["signal_maps", "signal_rooms"])
+def test_scenarios_with_a_channel_play_in_a_window(scenario, tmp_path):
+    session = play(scenario, seed=0, scores=None, fps=0, script="up*3 m left*2 tab up")
+    assert session.env.num_steps == 6 and session.maps["guide_0"].said == [1]
+
+
 def test_play_in_a_window_from_a_key_script(tmp_path):
     scores, shot = tmp_path / "scores.csv", tmp_path / "window.png"
     session = play(
@@ -252,10 +286,12 @@ def test_the_display_check_follows_the_environment(monkeypatch):
     assert missing_display() is None
 
 
-def test_a_bad_override_or_script_fails_with_a_message(capsys):
+def test_a_bad_override_or_script_fails_with_a_message(capsys, tmp_path):
     assert main(["play", "fruits_poisons", "--keys", "up*0", "--fps", "0"]) == 2
     assert "fewer than one frame" in capsys.readouterr().err
-    assert main(["play", "fruits_poisons_multi", "--sensors", "lidar", "--keys", "up"]) == 2
-    assert "camera" in capsys.readouterr().err  # greedy others need one: use --others
+    blind = ["play", "fruits_poisons_multi", "--sensors", "lidar", "--keys", "up", "--fps", "0"]
+    assert main([*blind, "--others", "greedy"]) == 2
+    assert "camera" in capsys.readouterr().err  # greedy others need one
+    assert main([*blind, "--scores", str(tmp_path / "s.csv")]) == 0  # each a policy that suits
     assert main(["play", "fruits_poisons", "--sensors", "sonar", "--keys", "up"]) == 2
     assert "sonar" in capsys.readouterr().err

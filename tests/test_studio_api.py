@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import time
 
 import pytest
 
@@ -239,11 +240,44 @@ def test_watch_steps_plays_pauses_and_downloads_a_gif(studio):
             state, _ = receive_state(ws)
         assert state["step"] == 6
         ws.send_json({"type": "pause"})
-        gif = studio.get(f"/api/episodes/{ready['episode']}/gif")
-        assert gif.status_code == 200 and gif.headers["content-type"] == "image/gif"
-        image = png(gif.content)
-        assert image.format == "GIF" and getattr(image, "n_frames", 1) >= 7
-    assert studio.get(f"/api/episodes/{ready['episode']}/gif").status_code == 404  # closed
+        ws.send_json({"type": "reset", "seed": 2})  # a new recording from here
+        for _ in range(20):  # frames the play sent before the pause came, then ready
+            message = ws.receive()
+            if "text" in message and '"ready"' in message["text"]:
+                break
+        receive_state(ws)
+        for fps in (60, 60, 4):  # the viewer slows down: 250 ms a frame
+            ws.send_json({"type": "speed", "fps": fps})
+            ws.send_json({"type": "step"})
+            state, _ = receive_state(ws)
+        image = gif_of(studio, ready["episode"])
+        assert image.format == "GIF" and image.n_frames == 4 and image.width <= 480
+        durations = []
+        for index in range(image.n_frames):
+            image.seek(index)
+            durations.append(image.info["duration"])
+        assert durations == [20, 20, 20, 250]  # as long as the viewer saw each
+    assert studio.post(f"/api/episodes/{ready['episode']}/gif").status_code == 404  # closed
+
+
+def gif_of(c: TestClient, episode: str, polls: int = 2000) -> Image.Image:
+    """The GIF of an episode, made in the background: its progress polled (at most
+    ``polls`` times) until it is ready, then downloaded."""
+    started = c.post(f"/api/episodes/{episode}/gif")
+    assert started.status_code == 202, started.text
+    job = started.json()
+    assert job["total"] >= 1 and job["done"] <= job["total"]
+    for _ in range(polls):
+        progress = c.get(f"/api/gifs/{job['gif']}").json()
+        assert progress["error"] is None
+        if progress["ready"]:
+            break
+        time.sleep(0.01)
+    assert progress["ready"] and progress["done"] == progress["total"]
+    download = c.get(f"/api/gifs/{job['gif']}/file")
+    assert download.headers["content-type"] == "image/gif"
+    assert len(download.content) == progress["bytes"]
+    return png(download.content)
 
 
 def test_bad_messages_scenarios_and_policies_get_errors_and_the_socket_stays(studio):
@@ -310,10 +344,12 @@ def test_episodes_at_once_are_bounded(folders):
         first.send_json({"type": "start", "scenario": "fruits_poisons"})
         assert first.receive_json()["type"] == "ready"
         with pytest.raises(WebSocketDisconnect) as closed:
-            with socket(c) as second:
-                assert "busy" in second.receive_json()["message"]
+            with socket(c) as second:  # connected, it holds no slot until it starts one
+                second.send_json({"type": "start", "scenario": "fruits_poisons"})
+                busy = second.receive_json()
+                assert "busy" in busy["message"] and busy["fatal"] and busy["code"] == 1013
                 second.receive_json()
-        assert closed.value.code == 1013
+        assert closed.value.code == 1013 and "busy" in closed.value.reason
 
 
 def test_checkpoints_come_from_their_folder_through_the_data_only_loader(folders, tmp_path):

@@ -135,6 +135,67 @@ def test_watch_runs_and_its_gif_downloads_and_decodes(page, tmp_path):
     assert "agent_0" in page.inner_text("#infos")
 
 
+def test_watch_offers_each_agent_what_suits_it_and_goes_on_after_a_refusal(page):
+    page.goto(page.studio_url + "#/watch?ref=blind_fetch")
+    select = page.wait_for_selector("#agents select[data-agent='agent_0']")
+    offered = select.eval_on_selector_all("option", "options => options.map(o => o.value)")
+    assert "greedy" not in offered and "planner" in offered  # blind: no camera for greedy
+    page.wait_for_selector("#step[data-step='0']")
+    page.evaluate(  # a choice the page does not offer, as a stale page might send
+        """() => {
+            const select = document.querySelector("#agents select[data-agent='agent_0']");
+            select.append(new Option("greedy", "greedy"));
+            select.value = "greedy";
+            select.dispatchEvent(new Event("change"));
+        }"""
+    )
+    page.wait_for_selector("#agents select.refused[data-agent='agent_0']")
+    assert "camera" in page.inner_text("#status")
+    page.click("#step-once")  # the episode before the refusal still runs
+    page.wait_for_selector("#step[data-step='1']")
+    page.select_option("#agents select[data-agent='agent_0']", "random")
+    page.wait_for_selector("#step[data-step='0']")
+    page.wait_for_function("() => !document.querySelector('#agents select.refused')")
+
+
+def test_a_dropped_episode_says_why_and_the_page_connects_again(page, monkeypatch):
+    from flatland_ma.studio.episodes import Watch
+
+    page.goto(page.studio_url + "#/watch?ref=fruits_poisons&seed=4")
+    page.wait_for_selector("#step[data-step='0']")
+    real, failures = Watch.advance, []
+
+    def fails_once(self, keys=None):
+        if not failures:
+            failures.append(self)
+            raise RuntimeError("a policy fell over")
+        return real(self, keys)
+
+    monkeypatch.setattr(Watch, "advance", fails_once)  # the server runs in this process
+    page.click("#step-once")
+    page.wait_for_function(
+        "() => document.getElementById('status').textContent.includes('a policy fell over')"
+    )
+    page.wait_for_function(  # connected again: the same episode, from its start
+        "() => document.getElementById('status').textContent === 'watch: fruits_poisons'"
+    )
+    page.wait_for_selector("#step[data-step='0']")
+    page.click("#step-once")
+    page.wait_for_selector("#step[data-step='1']")
+
+
+def test_play_on_a_scenario_with_a_channel_chooses_words_by_key(page):
+    page.goto(page.studio_url + "#/play?ref=signal_maps")
+    page.wait_for_selector("#step[data-step='0']")
+    assert "m: next word of say_0" in page.inner_text("#keys")
+    page.click("#frame")
+    page.keyboard.press("m")
+    page.keyboard.down("ArrowUp")
+    page.wait_for_function("() => Number(document.getElementById('step').dataset.step) >= 1")
+    page.keyboard.up("ArrowUp")
+    assert page.inner_text("#said") == "saying 1"
+
+
 def test_screenshots_of_each_page(page):
     """The docs' pictures of the studio (docs/images/studio/), taken as the pages show."""
     SHOTS.mkdir(parents=True, exist_ok=True)

@@ -54,7 +54,7 @@ def play(
     scenario: str | Path,
     *,
     seed: int | None = None,
-    others: str = "greedy",
+    others: str | None = None,
     episodes: int = 1,
     scores: str | Path | None = "play_scores.csv",
     fps: float = 30.0,
@@ -65,7 +65,9 @@ def play(
     """Play ``episodes`` episodes in a window; return the session (its ``finished`` rows
     are those appended to ``scores``). Keys come from the keyboard, or from ``script``
     (see ``ScriptedKeys``). ``seed``: the first episode's (drawn at random if None, and
-    written with the scores); ``screenshot``: a PNG of the window's last picture.
+    written with the scores); ``screenshot``: a PNG of the window's last picture;
+    ``others``: the policy of the agents you do not drive (None: each its own,
+    ``policies.named.default_policy``).
     ``ValueError``, before any window opens, for a bad ``fps``, ``episodes`` or script."""
     if not (isinstance(fps, (int, float)) and math.isfinite(fps) and fps >= 0):
         raise ValueError(f"fps must be a finite number, 0 or more (0: no wait), not {fps!r}")

@@ -15,10 +15,14 @@ q / e            head_left / head_right          head +1 / -1
 g / r            grasp / release (first hand)    its grip +1 / -1
 z x, c v, b n,   each further control's two      each further control +1 / -1 (arm
 1 2, ... 9 0     macros (arm_left / arm_right)   joints, further hands), in order
+m k l o p u i y  the next word said (say_0,      the same (the word's entry is set to
+                 say_1, ...)                     the middle of the word's bin)
 ===============  ==============================  =====================================
 
 With a discrete body, several keys held at once give the first of their actions in
-action order. With a continuous one, the entries add up.
+action order. With a continuous one, the entries add up. With a channel, each word
+said is chosen by its key (a press moves to the next word of the vocabulary, round) and
+said with every action until changed; choosing a word is no step.
 """
 
 from __future__ import annotations
@@ -39,6 +43,9 @@ GRIP_KEYS = ("g", "r")
 MORE_KEYS = (("z", "x"), ("c", "v"), ("b", "n"), ("1", "2"), ("3", "4"), ("5", "6"), ("7", "8"))
 MORE_KEYS += (("9", "0"),)
 """Key pairs for the controls beyond the base, the head and the first hand, in order."""
+WORD_KEYS = ("m", "k", "l", "o", "p", "u", "i", "y")
+"""The key that chooses the next word of each word said (``say_0``, ``say_1``, ...)."""
+SAY = "say_"
 NEXT_AGENT, QUIT = "tab", "escape"
 
 
@@ -68,17 +75,28 @@ def _control_keys(controls: list[tuple[str, str, str]]) -> list[tuple[str, str]]
 
 
 class KeyMap:
-    """Which held keys make which action, for one agent's action ``names``."""
+    """Which held keys make which action, for one agent's action ``names``.
 
-    def __init__(self, names: Iterable[str], discrete: bool):
+    ``words`` words said each step (the last ``words`` names, ``say_0`` ...), each one of
+    ``vocabulary``: a discrete agent's action is then ``[macro, word, ...]`` (its space a
+    ``MultiDiscrete``), a continuous one's Box ends with an entry per word."""
+
+    def __init__(self, names: Iterable[str], discrete: bool, words: int = 0, vocabulary: int = 2):
         self.names = tuple(names)
         self.discrete = discrete
+        if not 0 <= words <= min(len(WORD_KEYS), len(self.names)):
+            raise ValueError(f"{words} words said: 0 to {len(WORD_KEYS)}")
+        self.vocabulary = vocabulary
+        self.said = [0] * words
+        """The word each token says with the next action (chosen with ``WORD_KEYS``)."""
+        moves = self.names[: len(self.names) - words]
+        self.moves = len(moves)
         bindings: list[Binding] = []
         if discrete:
-            for i, name in enumerate(self.names[:4]):
+            for i, name in enumerate(moves[:4]):
                 if name in BASE_DISCRETE:
                     bindings.append(Binding(BASE_DISCRETE[name], i, 1.0, name))
-            macros = self.names[4:]  # after stay: each control's plus and minus macros
+            macros = moves[4:]  # after stay: each control's plus and minus macros
             pairs = [(a.removesuffix("_left"), a, b) for a, b in zip(macros[::2], macros[1::2])]
             for i, keys in enumerate(_control_keys(pairs)):
                 for key, offset in zip(keys, (0, 1)):
@@ -86,38 +104,68 @@ class KeyMap:
                         index = 4 + 2 * i + offset
                         bindings.append(Binding(key, index, 1.0, self.names[index]))
         else:
-            for i, name in enumerate(self.names[:3]):
+            for i, name in enumerate(moves[:3]):
                 plus, minus = BASE_CONTINUOUS[name]
                 bindings += [Binding(plus, i, 1.0, f"{name}+"), Binding(minus, i, -1.0, f"{name}-")]
             bindings.append(Binding("space", -1, 0.0, "wait"))
-            controls = [(name, name, name) for name in self.names[3:]]
+            controls = [(name, name, name) for name in moves[3:]]
             for i, (plus, minus) in enumerate(_control_keys(controls)):
-                name = self.names[3 + i]
+                name = moves[3 + i]
                 if plus:
                     bindings.append(Binding(plus, 3 + i, 1.0, f"{name}+"))
                     bindings.append(Binding(minus, 3 + i, -1.0, f"{name}-"))
         self.bindings = tuple(bindings)
-        self.keys = frozenset(b.key for b in bindings)
+        self.word_keys = WORD_KEYS[:words]
+        self.keys = frozenset(b.key for b in bindings) | frozenset(self.word_keys)
         """Every key this map reads."""
+
+    @staticmethod
+    def for_space(names: Iterable[str], space, vocabulary: int = 2) -> KeyMap:
+        """The map for an agent's action ``space`` (``Discrete``, ``MultiDiscrete``:
+        the macro then the words, or ``Box``) and its action ``names``."""
+        from gymnasium import spaces
+
+        names = tuple(names)
+        if isinstance(space, spaces.Discrete):
+            return KeyMap(names, True)
+        if isinstance(space, spaces.MultiDiscrete):
+            nvec = [int(n) for n in np.asarray(space.nvec).ravel()]
+            return KeyMap(names, True, len(nvec) - 1, max(nvec[1:], default=2))
+        words = len(names) - len(tuple(n for n in names if not n.startswith(SAY)))
+        return KeyMap(names, False, words, vocabulary)
+
+    def press(self, pressed: Collection[str]) -> bool:
+        """Choose the next word of each token whose key went down; whether any did."""
+        chosen = False
+        for j, key in enumerate(self.word_keys):
+            if key in pressed:
+                self.said[j] = (self.said[j] + 1) % self.vocabulary
+                chosen = True
+        return chosen
 
     def action(self, keys: Collection[str]):
         """The action for these held keys, or None when none of them is an action key.
-        Discrete: the first bound action in action order. Continuous: the sum of the
-        held keys' entries, each in [-1, 1] (float32, like the action space)."""
+        Discrete: the first bound action in action order (with the words chosen, as an
+        int64 array, if the agent speaks). Continuous: the sum of the held keys'
+        entries, each in [-1, 1] (float32, like the action space), and each word's."""
         held = [b for b in self.bindings if b.key in keys]
         if not held:
             return None
         if self.discrete:
-            return min(b.index for b in held)
+            macro = min(b.index for b in held)
+            return np.array([macro, *self.said], np.int64) if self.said else macro
         action = np.zeros(len(self.names), np.float32)
         for b in held:
             if b.index >= 0:
                 action[b.index] += b.value
+        for j, word in enumerate(self.said):  # the middle of the word's bin of [-1, 1]
+            action[self.moves + j] = (2.0 * word + 1.0) / self.vocabulary - 1.0
         return np.clip(action, -1.0, 1.0)
 
     def help(self) -> list[str]:
         """``key: what it does`` for every key, in action order."""
-        return [f"{b.key}: {b.label}" for b in self.bindings]
+        words = [f"{k}: next word of {SAY}{j}" for j, k in enumerate(self.word_keys)]
+        return [f"{b.key}: {b.label}" for b in self.bindings] + words
 
 
 @dataclass(frozen=True)
@@ -137,7 +185,8 @@ class Keys:
 
 SCRIPT_KEYS = frozenset(
     [*BASE_DISCRETE.values(), *(k for pair in BASE_CONTINUOUS.values() for k in pair)]
-    + [*HEAD_KEYS, *GRIP_KEYS, *(k for pair in MORE_KEYS for k in pair), NEXT_AGENT, QUIT]
+    + [*HEAD_KEYS, *GRIP_KEYS, *(k for pair in MORE_KEYS for k in pair), *WORD_KEYS]
+    + [NEXT_AGENT, QUIT]
 )
 """The keys a script may name: every key of the table, Tab and Esc (and ``wait``)."""
 MAX_SCRIPT_FRAMES = 1_000_000

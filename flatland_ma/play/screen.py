@@ -58,10 +58,12 @@ class Screen:
         tally = s.tallies.get(s.agent)
         score = tally.score if tally else 0.0
         episode = min(s.episode + 1, s.episodes)
+        said = s.maps[s.agent].said
+        saying = f"{SEPARATOR}saying {' '.join(map(str, said))}" if said else ""
         return (
             f"{s.agent}{SEPARATOR}your score {score:g} (its return "
             f"{s.returns.get(s.agent, 0.0):g}){SEPARATOR}episode {episode}/{s.episodes}"
-            f"{SEPARATOR}step {s.env.num_steps}"
+            f"{SEPARATOR}step {s.env.num_steps}{saying}"
         )
 
     def title(self) -> str:

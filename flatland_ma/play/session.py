@@ -15,11 +15,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gymnasium import spaces
-
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.play.keys import NEXT_AGENT, QUIT, KeyMap, Keys
-from flatland_ma.policies.named import SHIPPED, is_checkpoint, make_policy
+from flatland_ma.policies.named import SHIPPED, default_policy, is_checkpoint, make_policy
 
 SCORE_COLUMNS = ("time", "scenario", "seed", "agent", "steps", "score")
 """The columns of the scores file, one row per agent you drove in an episode."""
@@ -48,7 +46,9 @@ class Session:
     env: FlatlandParallelEnv
     scenario: str
     seed: int = 0
-    others: str = "greedy"
+    others: str | None = None
+    """The policy of every agent you do not drive (None: each its own default,
+    ``policies.named.default_policy``: the scenario's reference solver where it suits)."""
     episodes: int = 1
     scores: Path | None = None
     episode: int = 0
@@ -64,23 +64,23 @@ class Session:
     """Whether the player left (Esc, or closing the window) before the last episode ended."""
 
     def __post_init__(self):
-        if self.others not in OTHERS and not is_checkpoint(self.others):
+        if self.others is not None and self.others not in OTHERS and not is_checkpoint(self.others):
             raise ValueError(
                 f"no policy {self.others!r} for the others; one of {', '.join(OTHERS)}, "
                 "or a checkpoint file (.safetensors)"
             )
         env = self.env
+        channel = env.spec.channel
+        vocabulary = channel.vocabulary if channel is not None else 2
         self.maps = {
-            a: KeyMap(env.action_names(a), isinstance(env.action_space(a), spaces.Discrete))
+            a: KeyMap.for_space(env.action_names(a), env.action_space(a), vocabulary)
             for a in env.possible_agents
         }
-        make = OTHERS.get(self.others) or (
-            lambda env, agent, seed: make_policy(self.others, env, agent, seed)
-        )
         self.policies = {}  # none with one agent: nobody else to drive
         if len(env.possible_agents) > 1:
             self.policies = {
-                a: make(env, a, self.seed + i) for i, a in enumerate(env.possible_agents)
+                a: make_policy(self.others or default_policy(env, a), env, a, self.seed + i)
+                for i, a in enumerate(env.possible_agents)
             }
         self._start()
 
@@ -112,6 +112,8 @@ class Session:
             return False
         if NEXT_AGENT in keys.pressed:
             self.switch()
+        if self.maps[self.agent].press(keys.pressed):
+            self.changed = True
         action = self.maps[self.agent].action(keys.down)
         if action is not None:
             self._step(action)

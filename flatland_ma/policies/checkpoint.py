@@ -222,6 +222,30 @@ def _probe(path: Path, info: dict, network: Any) -> None:
         )
 
 
+def agent_spaces(description: dict, env, agent: str) -> tuple[Any, Any, Any]:
+    """The observation and action spaces a checkpoint described by ``description`` must
+    have been trained in to play ``agent`` of ``env``, and the env's ``Padding`` when the
+    network read padded observations (None otherwise)."""
+    observation_space = env.observation_space(agent)
+    padding = None
+    if description.get("padded"):
+        from flatland_ma.envs.padding import Padding
+
+        padding = Padding.of(env)
+        if padding is not None:
+            observation_space = padding.space
+    return observation_space, env.action_space(agent), padding
+
+
+def check_spaces(path: str | Path, description: dict, observation_space, action_space) -> None:
+    """``ValueError`` naming ``path`` unless the checked ``description`` (its spaces as
+    text and as JSON) is of these spaces."""
+    for what, space in (("observation", observation_space), ("action", action_space)):
+        saved = description[f"{what}_space"]
+        if str(space) != saved or space_description(space) != description["spaces"][what]:
+            raise ValueError(f"{path}: trained for the {what} space {saved}, the agent has {space}")
+
+
 def read_trainer_state(path: str | Path) -> dict:
     """``{"model": state_dict, "optimizer": state_dict or None}`` for resuming training,
     checked as ``load_checkpoint`` checks them."""
@@ -241,27 +265,30 @@ class CheckpointPolicy:
         self._padding: tuple | None = None
         """The padding of the agent played (see ``bind``), or None."""
 
+    @staticmethod
+    def for_agent(
+        path: str | Path, env, agent: str, greedy: bool = False, seed: int | None = None
+    ) -> CheckpointPolicy:
+        """The checkpoint ``path`` playing ``agent`` of ``env``: its description's spaces
+        are checked against the agent's (``check_spaces``) before any tensor is read or
+        made, then it is loaded and bound."""
+        description = read_checkpoint(path)
+        observation_space, action_space, _ = agent_spaces(description, env, agent)
+        check_spaces(path, description, observation_space, action_space)
+        policy = CheckpointPolicy(path, greedy, seed)
+        policy.bind(env, agent)
+        return policy
+
     def check(self, observation_space, action_space) -> None:
         """Raise ``ValueError`` unless the agent's spaces are those the network learnt on."""
-        for what, space in (("observation", observation_space), ("action", action_space)):
-            saved = self.data[f"{what}_space"]
-            if str(space) != saved:
-                raise ValueError(
-                    f"{self.path}: trained for the {what} space {saved}, the agent has {space}"
-                )
+        check_spaces(self.path, self.data, observation_space, action_space)
 
     def bind(self, env, agent: str) -> None:
         """Play ``agent`` of ``env``: check its spaces against the network's. A network
         trained on padded observations (agents of several roles, ``pad=True``) reads this
         agent's observation padded as in training, its role named."""
-        if not self.data.get("padded"):
-            self.check(env.observation_space(agent), env.action_space(agent))
-            return
-        from flatland_ma.envs.padding import Padding
-
-        padding = Padding.of(env)
-        space = env.observation_space(agent) if padding is None else padding.space
-        self.check(space, env.action_space(agent))
+        observation_space, action_space, padding = agent_spaces(self.data, env, agent)
+        self.check(observation_space, action_space)
         if padding is not None:
             self._padding = (padding, env.possible_agents.index(agent))
 

@@ -18,6 +18,7 @@ A space is ``{"type": "Box", "shape": [64, 4], "dtype": "float32"}``, ``{"type":
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -30,6 +31,11 @@ code); 2: safetensors weights with this JSON description."""
 METADATA_KEY = "flatland_ma"
 MAX_SIZE = 2**16
 """The largest extent of an observation axis, and the most choices of an action."""
+MAX_OBSERVATION_VALUES = 2**22
+"""The most values one observation may hold, every entry together (16 MiB as float32):
+a 256 x 256 top-down map of every channel takes a tenth of it, the shipped scenarios at
+most 12,288. A checkpoint is probed with one observation of the shape it describes, so
+this bounds what loading it may allocate (its weights are bounded by the file's size)."""
 
 Size = Annotated[int, Field(ge=1, le=MAX_SIZE)]
 
@@ -62,6 +68,16 @@ class MultiDiscreteSpace(_Strict):
 class Spaces(_Strict):
     observation: Annotated[BoxSpace | DictSpace, Field(discriminator="type")]
     action: Annotated[DiscreteSpace | MultiDiscreteSpace, Field(discriminator="type")]
+
+    @model_validator(mode="after")
+    def _observation_within_the_limit(self):
+        values = observation_values(self.observation.model_dump())
+        if values > MAX_OBSERVATION_VALUES:
+            raise ValueError(
+                f"an observation of {values:,} values; a checkpoint's network reads at most "
+                f"{MAX_OBSERVATION_VALUES:,}"
+            )
+        return self
 
     def action_sizes(self) -> list[int]:
         action = self.action
@@ -120,6 +136,13 @@ class CheckpointSpec(_Strict):
                 f"{self.spaces.action.model_dump()}"
             )
         return self
+
+
+def observation_values(observation: dict) -> int:
+    """The values one observation of a described space holds (every entry's together)."""
+    if observation["type"] == "Box":
+        return math.prod(observation["shape"])
+    return sum(math.prod(space["shape"]) for space in observation["spaces"].values())
 
 
 def check_description(path: str | Path, data: Any) -> dict:

@@ -61,6 +61,55 @@ def make_policy(name: str, env: FlatlandParallelEnv, agent: str, seed: int | Non
         raise ValueError(
             f"no policy {name!r}: one of {', '.join(SHIPPED)}, or a checkpoint file (.safetensors)"
         )
-    policy = CheckpointPolicy(name, seed=seed)
-    policy.bind(env, agent)
-    return policy
+    return CheckpointPolicy.for_agent(name, env, agent, seed=seed)
+
+
+FALLBACKS = ("greedy", "sniffer", "planner", "random")
+"""What an agent plays when its scenario's reference solver does not suit it: the first
+of these that does (``random`` suits every agent)."""
+
+
+def solver_names(env: FlatlandParallelEnv) -> dict[str, str]:
+    """The policy the scenario's reference solver gives each agent, by name (empty when
+    the scenario names no reference solver)."""
+    spec = env.spec
+    reference = spec.reference
+    if reference is None:
+        return {}
+    names = {}
+    for i, agent in enumerate(env.possible_agents):
+        team = spec.team_of(i)
+        first = team is None or team is spec.teams[0]
+        if reference.solver == "teams":
+            assert reference.teams is not None and team is not None
+            names[agent] = reference.teams[spec.teams.index(team)]
+        elif reference.solver == "carrier_vs_random":
+            names[agent] = "carrier" if first else "random"
+        else:
+            names[agent] = reference.solver
+    return names
+
+
+def suits(name: str, env: FlatlandParallelEnv, agent: str) -> bool:
+    """Whether the shipped policy ``name`` can drive ``agent`` (it reads what the agent
+    senses, or the world; made once to ask, which is cheap for every shipped one)."""
+    try:
+        SHIPPED[name](env, agent, 0)
+    except ValueError:
+        return False
+    return True
+
+
+def suited_policies(env: FlatlandParallelEnv, agent: str) -> list[str]:
+    """The shipped policies that can drive ``agent``, in ``SHIPPED``'s order."""
+    return [name for name in SHIPPED if suits(name, env, agent)]
+
+
+def default_policy(env: FlatlandParallelEnv, agent: str) -> str:
+    """The policy ``agent`` plays when none is chosen: its scenario's reference solver
+    if that suits it, else the first of ``FALLBACKS`` that does."""
+    solver = solver_names(env).get(agent)
+    for name in (solver, *FALLBACKS) if solver in SHIPPED else FALLBACKS:
+        if name is not None and suits(name, env, agent):
+            return name
+    return "random"

@@ -8,7 +8,11 @@ Guards, in order:
   first page load sets; otherwise 403 (a WebSocket is closed with 1008);
 - the ``Origin`` of a WebSocket or a POST, when sent, must be the studio's own address,
   so another site open in the same browser can drive nothing;
-- bound to the loopback, the ``Host`` must be a loopback name (no DNS rebinding).
+- bound to the loopback, the ``Host`` must be a loopback name (no DNS rebinding);
+- at most ``limits.requests`` requests that passed the checks above are answered at
+  once (503 past it); refused ones are answered at once and never counted, so clients
+  without the token cannot crowd out the one with it (``serving`` closes connections
+  that never send a request).
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from flatland_ma.studio.api import Api, Refused
+from flatland_ma.studio.api import Api, Quiet, Refused
 from flatland_ma.studio.config import LOOPBACK, StudioConfig
 from flatland_ma.studio.sockets import Hub
 from flatland_ma.studio.workspace import Workspace
@@ -43,16 +47,29 @@ def static_dir() -> Path:
 class Guard:
     """ASGI middleware: the token, the origin and the host (see the module's docstring)."""
 
-    def __init__(self, app: ASGIApp, token: str | None, local: bool):
+    def __init__(self, app: ASGIApp, token: str | None, local: bool, requests: int = 64):
         self.app, self.token, self.local = app, token, local
+        self.requests = requests
+        self.answering = 0
+        """Requests that passed the checks being answered now (WebSockets not counted:
+        the episode slots bound them)."""
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] not in ("http", "websocket"):
             return await self.app(scope, receive, send)
         headers = {k.decode("latin-1"): v.decode("latin-1") for k, v in scope["headers"]}
         problem = self._problem(scope, headers)
-        if problem is None:
+        if problem is None and scope["type"] == "websocket":
             return await self.app(scope, receive, send)
+        if problem is None:
+            if self.answering >= self.requests:
+                busy = {"error": f"busy: {self.requests} requests are being answered"}
+                return await JSONResponse(busy, status_code=503)(scope, receive, send)
+            self.answering += 1
+            try:
+                return await self.app(scope, receive, send)
+            finally:
+                self.answering -= 1
         if scope["type"] == "websocket":
             await receive()  # the connect event
             await send({"type": "websocket.close", "code": CLOSE_POLICY, "reason": problem})
@@ -110,6 +127,9 @@ def create_app(config: StudioConfig, local: bool = True) -> Starlette:
         assert isinstance(exc, Refused)
         return exc.response()
 
+    async def quiet(request: Request, exc: Exception) -> Response:
+        return Response(status_code=400)  # the client has gone: nobody reads it
+
     routes = [
         Route("/", index),
         Route("/api/info", api.info),
@@ -117,16 +137,19 @@ def create_app(config: StudioConfig, local: bool = True) -> Starlette:
         Route("/api/picture", api.picture),
         Route("/api/scenario", api.scenario),
         Route("/api/schema", api.schema),
+        Route("/api/policies", api.policies),
         Route("/api/validate", api.validate, methods=["POST"]),
         Route("/api/preview", api.preview, methods=["POST"]),
         Route("/api/save", api.save, methods=["POST"]),
-        Route("/api/episodes/{key}/gif", api.gif),
+        Route("/api/episodes/{key}/gif", api.gif, methods=["POST"]),
+        Route("/api/gifs/{job}", api.gif_progress),
+        Route("/api/gifs/{job}/file", api.gif_file),
         WebSocketRoute("/api/episode", hub.serve),
     ]
     assets = static_dir() / "assets"
     if assets.is_dir():
         routes.append(Mount("/assets", StaticFiles(directory=assets), name="assets"))
-    app = Starlette(routes=routes, exception_handlers={Refused: refused})
-    app.add_middleware(Guard, token=config.token, local=local)
-    app.state.workspace, app.state.hub = workspace, hub
+    app = Starlette(routes=routes, exception_handlers={Refused: refused, Quiet: quiet})
+    app.add_middleware(Guard, token=config.token, local=local, requests=config.limits.requests)
+    app.state.workspace, app.state.hub, app.state.api = workspace, hub, api
     return app

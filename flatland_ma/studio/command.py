@@ -12,6 +12,7 @@ from flatland_ma.options import OptionError
 from flatland_ma.studio.config import LOOPBACK, Limits, StudioConfig
 
 DEFAULT_PORT = 8765
+SCORES_FILE = "play_scores.csv"
 DESCRIPTION = (
     "A local web app to design, watch and play scenarios in a browser: a gallery, an "
     "editor with completion and located errors, watching policies and playing at the "
@@ -56,8 +57,9 @@ def add_parser(commands) -> argparse.ArgumentParser:
     studio.add_argument(
         "--scores",
         type=options.output_file(".csv"),
-        default="play_scores.csv",
-        help="CSV that each played episode's scores are appended to (default: play_scores.csv)",
+        default=None,
+        help=f"CSV that each played episode's scores are appended to (default: {SCORES_FILE} "
+        "in the first --scenarios folder; none written without one)",
     )
     studio.add_argument(
         "--episodes",
@@ -98,11 +100,15 @@ def check(args) -> None:
 def config_of(args) -> StudioConfig:
     """The studio's configuration from its options (a token if not on the loopback)."""
     local = args.host in LOOPBACK
+    folders = tuple(Path(f) for f in (args.scenarios or []))
+    scores = args.scores
+    if scores is None and folders:
+        scores = folders[0] / SCORES_FILE
     return StudioConfig(
-        folders=tuple(Path(f) for f in (args.scenarios or [])),
+        folders=folders,
         checkpoints=args.checkpoints,
         token=None if local else secrets.token_urlsafe(24),
-        scores=args.scores,
+        scores=Path(scores) if scores is not None else None,
         limits=Limits(episodes=args.episodes, fps=args.fps, recorded_frames=args.gif_frames),
     )
 
@@ -111,25 +117,20 @@ def run(args) -> int:
     import uvicorn
 
     from flatland_ma.studio.app import create_app
+    from flatland_ma.studio.serving import browser_hosts, server_options, url_of
 
     config = config_of(args)
     app = create_app(config, local=config.token is None)
-    shown = f"[{args.host}]" if ":" in args.host else args.host
-    url = f"http://{shown}:{args.port}/"
+    hosts = browser_hosts(args.host)
     if config.token is not None:
-        url += f"?token={config.token}"
         print("Listening beyond this machine: every request needs the token in this URL.")
-    print(f"flatland-ma studio: open {url}", flush=True)
-    limits = config.limits
-    uvicorn.run(
-        app,
-        host=args.host,
-        port=args.port,
-        log_level="warning",
-        ws_max_size=limits.file_bytes + limits.message_bytes,
-        limit_concurrency=limits.episodes + 64,
-        timeout_graceful_shutdown=2,
-    )
+    print(f"flatland-ma studio: open {url_of(hosts[0], args.port, config.token)}")
+    for host in hosts[1:]:
+        print(f"  or {url_of(host, args.port, config.token)}")
+    if config.scores is not None:
+        print(f"Played episodes' scores go to {config.scores}.")
+    sys.stdout.flush()
+    uvicorn.run(app, host=args.host, port=args.port, **server_options(config.limits))
     return 0
 
 

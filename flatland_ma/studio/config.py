@@ -26,9 +26,25 @@ class Limits:
     recorded_frames: int = 300
     """Frames kept per episode for its GIF (the latest ones, as sent: 20-60 kB each)."""
     work: int = 2
-    """Scenario checks and pictures made at once (each takes a thread)."""
+    """Heavy jobs at once (each takes a thread): the editor's checks and previews, and
+    the GIFs; the pages' reads (gallery, pictures, info) have as many threads of their
+    own, so they never wait behind heavy jobs."""
     pictures: int = 256
     """Gallery pictures kept in memory."""
+    requests: int = 64
+    """Requests (with the token, when there is one) answered at once; one more is told
+    503. Requests without the token are refused at once and never counted."""
+    idle_seconds: float = 15.0
+    """A connection that has not sent a whole request after this long is closed; an
+    episode's page that has sent nothing for ``idle_episode_seconds`` loses its episode."""
+    idle_episode_seconds: float = 120.0
+    """See ``idle_seconds``: the pages say they are there every 20 seconds."""
+    clients: int = 256
+    """Clients whose heavy jobs are queued (one at a time each) that are remembered."""
+    gif_width: int = 480
+    """A GIF's frames are scaled down to at most this width."""
+    gifs: int = 16
+    """GIFs being made or kept for download at once (the oldest is dropped past it)."""
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ Both answer ``advance``, ``frame`` and ``state``; neither knows about sockets.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -17,13 +17,12 @@ import numpy as np
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.play.keys import QUIT, Keys
 from flatland_ma.play.session import Session
-from flatland_ma.policies.named import SHIPPED, make_policy
+from flatland_ma.policies.named import SHIPPED, default_policy, make_policy, suited_policies
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.studio.folders import CHECKPOINT_SUFFIXES, check_name, inside
 from flatland_ma.studio.scenarios import renderer_for
+from flatland_ma.studio.workspace import CHECKPOINT_PREFIX
 
-CHECKPOINT_PREFIX = "checkpoint:"
-"""A policy named ``checkpoint:NAME`` plays the file NAME of the checkpoint folder."""
 PLAYED_EPISODES = 10_000
 """Episodes one play connection may go through (seed, seed + 1, ...)."""
 MAX_INFO_ITEMS = 64
@@ -32,6 +31,24 @@ MAX_INFO_ITEMS = 64
 def policy_names(checkpoints: list[str]) -> list[str]:
     """Every policy a page may choose: the shipped ones, then the checkpoints."""
     return [*SHIPPED, *(CHECKPOINT_PREFIX + name for name in checkpoints)]
+
+
+def agent_policies(spec: ScenarioSpec, fitting: Callable[..., list[str]]) -> list[dict]:
+    """Each agent of ``spec``: the policies that suit it (the shipped ones that can drive
+    it, then ``fitting(env, agent)``'s checkpoints) and the one it plays by default."""
+    env = FlatlandParallelEnv(spec)
+    try:
+        return [
+            {
+                "agent": agent,
+                "policies": suited_policies(env, agent)
+                + [CHECKPOINT_PREFIX + name for name in fitting(env, agent)],
+                "default": default_policy(env, agent),
+            }
+            for agent in env.possible_agents
+        ]
+    finally:
+        env.close()
 
 
 def resolve_policy(name: object, checkpoints: Path | None) -> str:
@@ -47,6 +64,15 @@ def resolve_policy(name: object, checkpoints: Path | None) -> str:
     raise ValueError(
         f"no policy {name!r}: one of {', '.join(SHIPPED)}, or checkpoint:NAME of the folder"
     )
+
+
+class PolicyRefused(ValueError):
+    """A policy that cannot drive ``agent`` (it needs a sense the agent lacks, or a
+    checkpoint was trained for other spaces)."""
+
+    def __init__(self, agent: str, message: str):
+        super().__init__(f"{agent}: {message}")
+        self.agent = agent
 
 
 def plain(value, depth: int = 0):
@@ -70,7 +96,9 @@ def plain(value, depth: int = 0):
 
 
 class Watch:
-    """Every agent by its policy (``policies``: agent -> resolved name; greedy if none)."""
+    """Every agent by its policy (``policies``: agent -> resolved name; by default its
+    own, ``policies.named.default_policy``). A policy that cannot drive its agent raises
+    ``PolicyRefused`` naming the agent."""
 
     mode = "watch"
 
@@ -79,10 +107,14 @@ class Watch:
         self.seed = seed
         self.observations, infos = self.env.reset(seed=seed)
         agents = self.env.possible_agents
-        self.policies = {
-            a: make_policy(policies.get(a, "greedy"), self.env, a, seed + i)
-            for i, a in enumerate(agents)
-        }
+        self.policies = {}
+        for i, agent in enumerate(agents):
+            name = policies.get(agent) or default_policy(self.env, agent)
+            try:
+                self.policies[agent] = make_policy(name, self.env, agent, seed + i)
+            except ValueError as err:
+                self.env.close()
+                raise PolicyRefused(agent, str(err)) from None
         self.renderer = renderer_for(self.env)
         self.returns = {a: 0.0 for a in agents}
         self.infos: dict = {a: plain(i) for a, i in infos.items()}
@@ -126,9 +158,13 @@ class Play:
 
     mode = "play"
 
-    def __init__(self, spec: ScenarioSpec, seed: int, others: str, label: str, scores):
+    def __init__(self, spec: ScenarioSpec, seed: int, others: str | None, label: str, scores):
         self.env = FlatlandParallelEnv(spec)
-        self.session = Session(self.env, label, seed, others, PLAYED_EPISODES, scores)
+        try:
+            self.session = Session(self.env, label, seed, others, PLAYED_EPISODES, scores)
+        except ValueError:
+            self.env.close()
+            raise
         self.renderer = renderer_for(self.env)
 
     @property
@@ -159,6 +195,7 @@ class Play:
             "step": self.env.num_steps,
             "seed": s.seed + s.episode,
             "agent": s.agent,
+            "said": list(s.maps[s.agent].said),
             "score": tally.score if tally else 0.0,
             "episode": s.episode + 1,
             "returns": dict(s.returns),

@@ -6,12 +6,15 @@ never an exception in the server.
 type    keys
 ======  ==========================================================================
 start   mode (watch | play), scenario (a reference) or text (YAML) with folder,
-        seed, policies (agent -> policy, watch), others (policy, play), fps, image
+        seed, policies (agent -> policy, watch; an agent left out plays its default),
+        others (policy, play; none: each its default), fps, image
 play    (watch) run at the current speed
 pause   (watch) stop; ``step`` advances one step
 speed   fps: frames (steps) a second
 reset   seed: start the episode again
 keys    held: keys held now; pressed: keys that went down since the last message
+alive   nothing: the page is still there (an episode's page that says nothing for
+        ``limits.idle_episode_seconds`` loses its episode)
 ======  ==========================================================================
 """
 
@@ -49,13 +52,13 @@ class Start(_Message):
     folder: Annotated[int, Field(ge=0, le=999, strict=True)] | None = None
     seed: Seed = 0
     policies: Annotated[dict[Name, Name], Field(max_length=MAX_AGENTS)] = {}
-    others: Name = "greedy"
+    others: Name | None = None
     fps: Annotated[float, Field(gt=0, allow_inf_nan=False)] = 10.0
     image: Literal["jpeg", "png"] = "jpeg"
 
 
 class Control(_Message):
-    type: Literal["play", "pause", "step"]
+    type: Literal["play", "pause", "step", "alive"]
 
 
 class Speed(_Message):

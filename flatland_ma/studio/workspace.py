@@ -2,7 +2,8 @@
 reference, with their checked specs and pictures (kept while their files are unchanged).
 
 A reference is a shipped scenario's name (``fruits_poisons``) or ``N:NAME``, the file
-NAME of the N-th given folder (``0:my_world.yaml``).
+NAME of the N-th given folder (``0:my_world.yaml``). Messages shown to pages name files
+the same way, never by the server's paths (``public``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import threading
 from pathlib import Path
 
 from flatland_ma.scenario.errors import ScenarioError
-from flatland_ma.scenario.loader import list_scenarios, load_scenario
+from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_dir
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.studio.config import StudioConfig
 from flatland_ma.studio.folders import (
@@ -34,6 +35,11 @@ from flatland_ma.studio.scenarios import (
     spec_from_text,
 )
 
+CHECKPOINT_PREFIX = "checkpoint:"
+"""A policy named ``checkpoint:NAME`` plays the file NAME of the checkpoint folder."""
+MAX_DESCRIPTIONS = 1024
+"""Checkpoint descriptions kept (a few kB each)."""
+
 
 class Workspace:
     """The studio's scenarios and checkpoints; safe to use from several threads."""
@@ -41,7 +47,29 @@ class Workspace:
     def __init__(self, config: StudioConfig):
         self.config = config
         self._pictures: collections.OrderedDict[tuple, bytes] = collections.OrderedDict()
+        self._descriptions: collections.OrderedDict[tuple, dict | None] = collections.OrderedDict()
         self._lock = threading.Lock()
+        roots: list[tuple[str, str]] = []
+        for index, folder in enumerate(config.folders):
+            roots += [(str(folder.resolve()), f"{index}:"), (str(folder), f"{index}:")]
+        if config.checkpoints is not None:
+            for form in (config.checkpoints.resolve(), config.checkpoints):
+                roots.append((str(form), CHECKPOINT_PREFIX))
+        package = Path(__file__).resolve().parents[1]
+        roots += [(str(scenario_dir()), "scenarios"), (str(package), "flatland_ma")]
+        self._roots = sorted(
+            ((root.rstrip("/") + "/", name) for root, name in roots if root not in ("", ".")),
+            key=lambda pair: -len(pair[0]),
+        )
+
+    def public(self, text: str) -> str:
+        """``text`` with every path of a given folder, the checkpoint folder or the
+        package named as the pages name them (``0:my_world.yaml``,
+        ``checkpoint:ppo/seed_0.safetensors``), never by where they are on the server."""
+        for root, name in self._roots:
+            if root in text:
+                text = text.replace(root, name if name.endswith(":") else name + "/")
+        return text
 
     # -- references -------------------------------------------------------------------
 
@@ -65,7 +93,7 @@ class Workspace:
                 raise FolderError(f"no shipped scenario {ref!r}")
             return None, ref
         index, _, name = ref.partition(":")
-        if not index.isdigit() or len(index) > 3:
+        if not (index.isascii() and index.isdigit()) or len(index) > 3:
             raise FolderError(f"{ref!r}: a folder's file is N:FILE, N the folder's number")
         return self.folder(int(index)), check_name(name, SCENARIO_SUFFIXES)
 
@@ -108,9 +136,12 @@ class Workspace:
             summary = Summary.of(self.spec(ref), name if folder is None else None)
         except ScenarioError as err:
             problems = [problem_json(p) for p in err.problems]
-            return {**card, "error": str(err), "problems": problems}
+            for problem in problems:
+                problem["source"] = self.public(str(problem["source"]))
+                problem["message"] = self.public(str(problem["message"]))
+            return {**card, "error": self.public(str(err)), "problems": problems}
         except FolderError as err:
-            return {**card, "error": str(err), "problems": []}
+            return {**card, "error": self.public(str(err)), "problems": []}
         return {**card, **summary.__dict__}
 
     def checkpoints(self) -> list[str]:
@@ -124,6 +155,40 @@ class Workspace:
         if self.config.checkpoints is None:
             raise FolderError("no checkpoint folder was given (--checkpoints DIR)")
         return inside(self.config.checkpoints, check_name(name, CHECKPOINT_SUFFIXES, True))
+
+    def fitting_checkpoints(self, env, agent: str) -> list[str]:
+        """The checkpoints of the folder trained for ``agent``'s spaces (each file's
+        description read once while the file is unchanged; unreadable ones left out)."""
+        from flatland_ma.policies.checkpoint import agent_spaces, check_spaces, read_checkpoint
+
+        fitting = []
+        for name in self.checkpoints():
+            path = self.checkpoint(name)
+            try:
+                stat = path.stat()
+            except OSError:
+                continue
+            key = (name, stat.st_size, stat.st_mtime_ns)
+            with self._lock:
+                known = key in self._descriptions
+                description = self._descriptions.get(key)
+            if not known:
+                try:
+                    description = read_checkpoint(path)
+                except ValueError:
+                    description = None
+                with self._lock:
+                    self._descriptions[key] = description
+                    while len(self._descriptions) > MAX_DESCRIPTIONS:
+                        self._descriptions.popitem(last=False)
+            if description is None:
+                continue
+            try:
+                check_spaces(path, description, *agent_spaces(description, env, agent)[:2])
+            except ValueError:
+                continue
+            fitting.append(name)
+        return fitting
 
     # -- pictures ---------------------------------------------------------------------
 

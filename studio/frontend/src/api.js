@@ -1,5 +1,15 @@
 // Requests to the studio's server. The page was opened with the token (if the studio
-// has one) and the server set it as a cookie, which every request below carries.
+// has one) and the server set it as a cookie, which every request below carries. Each
+// request names this page (X-Studio-Client): the server runs a page's heavy jobs one at
+// a time and answers a superseded one 409, which callers treat as "never mind".
+
+const CLIENT = Array.from({ length: 4 }, () => Math.random().toString(36).slice(2, 10)).join("");
+const HEADERS = { "x-studio-client": CLIENT };
+export const SUPERSEDED = 409;
+
+export function stale(error) {
+  return error.name === "AbortError" || (error instanceof ApiError && error.status === SUPERSEDED && error.body.error?.startsWith("superseded"));
+}
 
 export class ApiError extends Error {
   constructor(message, status, body) {
@@ -16,18 +26,29 @@ async function answer(response) {
   throw new ApiError(body.error || `HTTP ${response.status}`, response.status, body);
 }
 
-export async function getJson(path, params = {}) {
+export async function getJson(path, params = {}, signal = undefined) {
   const query = new URLSearchParams(params).toString();
-  return answer(await fetch(query ? `${path}?${query}` : path));
+  return answer(await fetch(query ? `${path}?${query}` : path, { headers: HEADERS, signal }));
 }
 
-export async function post(path, body) {
+export async function post(path, body, signal = undefined) {
   const response = await fetch(path, {
     method: "POST",
-    headers: { "content-type": "application/json" },
-    body: JSON.stringify(body),
+    headers: { ...HEADERS, "content-type": "application/json" },
+    body: body === undefined ? undefined : JSON.stringify(body),
+    signal,
   });
   return answer(response);
+}
+
+// One request at a time for one purpose: a new one aborts the one before.
+export function latestOnly() {
+  let controller = null;
+  return () => {
+    if (controller) controller.abort();
+    controller = new AbortController();
+    return controller.signal;
+  };
 }
 
 export function socketUrl(path) {

@@ -6,7 +6,7 @@ import { yaml } from "@codemirror/lang-yaml";
 import { linter, lintGutter, forceLinting } from "@codemirror/lint";
 import { autocompletion } from "@codemirror/autocomplete";
 import { hoverTooltip } from "@codemirror/view";
-import { ApiError, el, getJson, post, setStatus, studioInfo } from "./api.js";
+import { ApiError, el, getJson, latestOnly, post, setStatus, stale, studioInfo } from "./api.js";
 import { hoverText, schemaCompletion } from "./schema.js";
 
 const PAUSE_MS = 500;
@@ -23,6 +23,8 @@ export async function showEditor(page, params) {
   let seed = 0;
   let previewUrl = null;
   let latest = 0;
+  const validateSignal = latestOnly();
+  const previewSignal = latestOnly();
 
   const problemsList = el("ul", { class: "problems", id: "problems" });
   const preview = el("img", { id: "preview", alt: "the layout at this seed" });
@@ -34,9 +36,10 @@ export async function showEditor(page, params) {
     const asked = ++latest;
     let answer;
     try {
-      answer = await post("/api/validate", folder === null ? { text } : { text, folder });
+      const body = folder === null ? { text } : { text, folder };
+      answer = await post("/api/validate", body, validateSignal());
     } catch (error) {
-      setStatus(String(error.message), true);
+      if (!stale(error)) setStatus(String(error.message), true);
       return [];
     }
     if (asked !== latest) return [];
@@ -75,13 +78,14 @@ export async function showEditor(page, params) {
     try {
       const body = { text, seed };
       if (folder !== null) body.folder = folder;
-      const blob = await post("/api/preview", body);
+      const blob = await post("/api/preview", body, previewSignal());
       if (asked !== latest) return;
       if (previewUrl) URL.revokeObjectURL(previewUrl);
       previewUrl = URL.createObjectURL(blob);
       preview.src = previewUrl;
       preview.dataset.seed = String(seed);
     } catch (error) {
+      if (stale(error)) return;
       if (error instanceof ApiError && error.body.problems) showProblems(error.body.problems);
       else setStatus(String(error.message), true);
     }
@@ -119,7 +123,7 @@ export async function showEditor(page, params) {
   const folderSelect = el(
     "select",
     { id: "save-folder" },
-    info.folders.map((path, i) => el("option", { value: String(i) }, `${i}: ${path}`)),
+    info.folders.map((name, i) => el("option", { value: String(i) }, `${i}: ${name}`)),
   );
   const nameInput = el("input", { id: "save-name", placeholder: "my_world.yaml" });
   async function save(overwrite = false) {
