@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow test-rllib test-clients soak bench performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
+.PHONY: demo test test-slow test-rllib test-clients soak bench bench-learn performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -72,6 +72,14 @@ soak: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/flatland-ma bench
 	$(BIN)/flatland-ma bench --scale
+
+# The learner against its parts (baselines/bench_learn.py): the env, the acting pass and the
+# update each alone, then baselines.ppo serial and overlapped, in agent-steps per CPU-second,
+# on the one-agent and the four-agent room and on signal_rooms' maps.
+bench-learn: $(STAMP)
+	$(BIN)/python -m baselines.bench_learn --scenario fruits_poisons
+	$(BIN)/python -m baselines.bench_learn --scenario fruits_poisons_multi
+	$(BIN)/python -m baselines.bench_learn --scenario signal_rooms --loop-timesteps 32768
 
 # A new `bench --scale --json` run into benchmarks/results/scale.json, then VMAS beside
 # flatland_ma in the same run (benchmarks/peers.py, VMAS in .venv-vmas: its pins clash with
