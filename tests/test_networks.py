@@ -67,3 +67,21 @@ def test_spaces_ppo_cannot_act_in_are_refused_by_name():
         Agent(CAMERA, spaces.Box(-1.0, 1.0, (2,), np.float32))
     with pytest.raises(ValueError, match="too small"):
         Agent(spaces.Box(0.0, 1.0, (6, 6, 3), np.float32), spaces.Discrete(3))
+
+
+@pytest.mark.parametrize("network", ["strided", "paper"])
+@pytest.mark.parametrize("batch", [1, 16, 300])
+def test_the_acting_pass_convolves_as_training_does(network, batch):
+    """Without gradients the image trunk convolves by one matrix product over windows
+    (faster at acting batches); it must give what the training path's Conv1d gives."""
+    from flatland_ma.policies.networks import ImageInput
+
+    torch.manual_seed(batch)
+    encoder = ImageInput((64, 4), 3, network)
+    x = torch.rand(batch, 64, 4)
+    trained = encoder(x)
+    with torch.no_grad():
+        acted = encoder(x)
+    assert acted.shape == trained.shape
+    torch.testing.assert_close(acted, trained.detach(), rtol=1e-5, atol=1e-5)
+    assert trained.abs().max() > 0.01

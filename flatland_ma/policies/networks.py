@@ -104,7 +104,28 @@ class ImageInput(nn.Module):
             self.trunk, self.features = strided_trunk(self.channels, rays)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.trunk(x[..., : self.channels].transpose(-1, -2)).flatten(1)
+        x = x[..., : self.channels].transpose(-1, -2)
+        if torch.is_grad_enabled():
+            return self.trunk(x).flatten(1)
+        for layer in self.trunk:  # acting: no gradient, small batches
+            x = unfolded_conv1d(x, layer) if isinstance(layer, nn.Conv1d) else layer(x)
+        return x.flatten(1)
+
+
+def unfolded_conv1d(x: torch.Tensor, conv: nn.Conv1d) -> torch.Tensor:
+    """``conv(x)`` (no padding, no dilation) as one matrix product over the input's
+    windows. Without gradients it takes 0.4-0.7x the time of oneDNN's convolution at the
+    batches of an acting pass (16-512 rows of a 64-ray image, one thread); with them its
+    backward pass is slower, so training keeps ``conv``. The same sums in another order:
+    equal to about 1e-6."""
+    (kernel,), (stride,) = conv.kernel_size, conv.stride
+    windows = x.unfold(2, kernel, stride)  # (batch, channels, length, kernel)
+    batch, channels, length, _ = windows.shape
+    rows = windows.permute(0, 2, 1, 3).reshape(batch, length, channels * kernel)
+    out = rows @ conv.weight.reshape(conv.out_channels, -1).t()
+    if conv.bias is not None:
+        out = out + conv.bias
+    return out.transpose(1, 2)
 
 
 class MapInput(nn.Module):
