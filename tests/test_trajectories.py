@@ -14,8 +14,11 @@ from tests.trajectories import DATA, MAX_CYCLES, load, own_spaces, replay_batch,
 SCENARIOS = flatland_ma.list_scenarios()
 
 
-def test_every_shipped_scenario_has_its_recording():
+def test_every_shipped_scenario_has_its_recording_of_its_version():
     assert sorted(p.stem for p in DATA.glob("*.json")) == sorted(SCENARIOS)
+    for scenario in SCENARIOS:
+        version = flatland_ma.load_scenario(scenario).version
+        assert load(scenario)["version"] == version, f"{scenario} v{version}: record it again"
 
 
 @pytest.mark.parametrize("scenario", SCENARIOS)

@@ -18,7 +18,8 @@ a reset (``R``) or a step (``S``); ``status``, one character per possible agent
 one per agent that played; ``obs``, a hash of the observations returned (agent by agent
 in the possible agents' order); ``bodies``, a hash of every body's pose and velocity.
 
-Record again (only when a change of dynamics is meant, with the task's version bumped):
+A recording names the scenario's ``version``: a change that alters a recording is a
+change of the task, which bumps its version. Record again (only then):
 ``PYTHONPATH=. python -m tests.trajectories``.
 """
 
@@ -162,10 +163,11 @@ def record_world(scenario: str, world: int) -> dict[str, Any]:
 
 def record(scenario: str) -> dict[str, Any]:
     env = flatland_ma.parallel_env(scenario)
-    agents = list(env.possible_agents)
+    agents, version = list(env.possible_agents), env.spec.version
     env.close()
     return {
         "scenario": scenario,
+        "version": version,
         "recorded_from": RECORDED_FROM,
         "max_cycles": MAX_CYCLES,
         "agents": agents,

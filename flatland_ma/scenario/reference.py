@@ -80,6 +80,12 @@ files.
   (above), are the loader's.
 - **Random draws** (layouts drawn per episode, spawns, respawns, randomly placed zones) all
   come from the generator seeded by `reset(seed=...)`.
+- **Versions**: `version` (default 0) names the task's dynamics, rewards and observations.
+  A change of any of them, by the file or by the library, bumps it and says so in the
+  changelog; the Gymnasium id names it (`flatland_ma/FruitsPoisons-v0`; only the current
+  version is registered), benchmark results record it and are never mixed across
+  versions, and every shipped scenario's recorded trajectories
+  (`tests/data/trajectories/`) hold its current version to the bit.
 
 ## Example
 
