@@ -4,6 +4,11 @@ An id names its scenario and the scenario's ``version`` (``fruits_poisons`` at v
 is ``flatland_ma/FruitsPoisons-v0``); only the current version of each is registered, so
 an id of an older version fails in ``gymnasium.make``, which names the versions there are.
 
+The ids are registered from the shipped scenarios' index (``flatland_ma.scenario.shipped``:
+each one's version, number of agents and episode length, read without parsing the files);
+a scenario is parsed and validated when an env is made. Should the files no longer match
+the index, they are parsed here instead.
+
 Each id is registered with its scenario's ``episode.max_steps`` as ``max_episode_steps``,
 so ``gymnasium.make``'s ``TimeLimit`` truncates there unless ``max_episode_steps=N`` says
 otherwise; the env is built with ``time_limit=False`` so that it does not truncate too.
@@ -20,7 +25,7 @@ from __future__ import annotations
 
 import gymnasium
 
-from flatland_ma.scenario.loader import list_scenarios, list_streams, load_scenario
+from flatland_ma.scenario.shipped import list_scenarios, list_streams, read_index
 
 NAMESPACE = "flatland_ma"
 
@@ -33,7 +38,7 @@ def gym_id(scenario: str, version: int | None = None) -> str:
     """``fruits_poisons`` at version 0 -> ``flatland_ma/FruitsPoisons-v0``; without
     ``version``, the shipped scenario's own (its file's ``version``)."""
     if version is None:
-        version = load_scenario(scenario).version
+        version = _entries()[scenario]["version"]
     return f"{NAMESPACE}/{_camel(scenario)}-v{version}"
 
 
@@ -42,14 +47,24 @@ def stream_gym_id(stream: str) -> str:
     return f"{NAMESPACE}/{_camel(stream)}Stream-v0"
 
 
+def _entries() -> dict[str, dict[str, int]]:
+    """Each shipped scenario's version, number of agents and episode length: from the
+    index, or from the files if they changed since it was written."""
+    index = read_index()
+    if index is not None and sorted(index) == list_scenarios():
+        return index
+    from flatland_ma.scenario.index import index_of_files
+
+    return index_of_files()["scenarios"]
+
+
 def single_agent_scenarios() -> dict[str, tuple[int, int]]:
     """Shipped scenarios with one agent, each with its ``version`` and ``episode.max_steps``."""
-    found = {}
-    for name in list_scenarios():
-        spec = load_scenario(name)  # the file alone: nothing is built
-        if spec.n_agents == 1:
-            found[name] = (spec.version, spec.episode.max_steps)
-    return found
+    return {
+        name: (entry["version"], entry["max_steps"])
+        for name, entry in _entries().items()
+        if entry["n_agents"] == 1
+    }
 
 
 def register_gym_ids() -> list[str]:

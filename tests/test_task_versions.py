@@ -31,12 +31,12 @@ def test_gymnasium_ids_name_the_version_and_only_the_current_one_is_registered(m
     singles = [s for s in names if flatland_ma.load_scenario(s).n_agents == 1]
     assert flatland_ma.GYM_IDS == [gym_id(s) for s in singles]
     # A scenario whose file said version 2: its id is -v2, and v0 is not there.
-    loaded = registration.load_scenario
-    monkeypatch.setattr(registration, "load_scenario", lambda n: loaded(n, version=2))
-    monkeypatch.setattr(registration, "list_scenarios", lambda: ["key_door"])
+    entry = {"version": 2, "n_agents": 1, "max_steps": 500}
+    monkeypatch.setattr(registration, "_entries", lambda: {"key_door": entry})
     try:
         assert register_gym_ids() == ["flatland_ma/KeyDoor-v2"]
         assert gymnasium.spec("flatland_ma/KeyDoor-v2").kwargs["scenario"] == "key_door"
+        assert gym_id("key_door") == "flatland_ma/KeyDoor-v2"
     finally:
         gymnasium.registry.pop("flatland_ma/KeyDoor-v2", None)
     with pytest.raises(gymnasium.error.VersionNotFound, match="v3"):
