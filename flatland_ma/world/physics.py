@@ -40,11 +40,16 @@ from typing import Any
 import numba as nb
 import numpy as np
 import pymunk
-import pymunk.batch
 from numba import types
 from numba.extending import intrinsic
 from pymunk._chipmunk import ffi
 from pymunk._chipmunk import lib as _chipmunk
+
+_batch: Any
+try:
+    from pymunk import batch as _batch
+except ImportError:  # a pymunk before 7: no batch tier
+    _batch = None
 
 VARIABLE = "FLATLAND_MA_PHYSICS"
 """The environment variable that asks for a tier."""
@@ -105,21 +110,19 @@ def _batch_found() -> bool:
         space, body = pymunk.Space(), pymunk.Body(1.0, 1.0)
         body.position, body.angle = (1.5, -2.0), 0.25
         space.add(body)
-        return _space_poses(space, pymunk.batch.Buffer()) == ([body.id], [(1.5, -2.0, 0.25)])
+        return _space_poses(space, _batch.Buffer()) == ([body.id], [(1.5, -2.0, 0.25)])
     except (AttributeError, TypeError, ValueError):
         return False
 
 
-_POSE_FIELDS = (
-    pymunk.batch.BodyFields.BODY_ID
-    | pymunk.batch.BodyFields.POSITION
-    | pymunk.batch.BodyFields.ANGLE
-)
+def _pose_fields() -> Any:
+    fields = _batch.BodyFields
+    return fields.BODY_ID | fields.POSITION | fields.ANGLE
 
 
 def _space_poses(space: pymunk.Space, buffer: Any) -> tuple[list, list]:
     buffer.clear()
-    pymunk.batch.get_space_bodies(space, _POSE_FIELDS, buffer)
+    _batch.get_space_bodies(space, _pose_fields(), buffer)
     ids = np.frombuffer(buffer.int_buf(), np.uintp).tolist()
     values = np.frombuffer(buffer.float_buf(), np.float64).reshape(-1, 3)
     return ids, [tuple(row) for row in values.tolist()]
@@ -310,14 +313,15 @@ class SpacePoses:
         self._bodies = list(bodies)  # their structs live while they are referenced here
         self._space = next((b.space for b in bodies if b.space is not None), None)
         self._ids = np.array([b.id for b in bodies], np.uintp)
-        self._buffer = pymunk.batch.Buffer()
+        self._buffer = _batch.Buffer()
+        self._fields = _pose_fields()
 
     def read(self) -> None:
         found = np.zeros(len(self._ids), bool)
         if self._space is not None:
             buffer = self._buffer
             buffer.clear()
-            pymunk.batch.get_space_bodies(self._space, _POSE_FIELDS, buffer)
+            _batch.get_space_bodies(self._space, self._fields, buffer)
             ids = np.frombuffer(buffer.int_buf(), np.uintp)
             if len(ids):
                 values = np.frombuffer(buffer.float_buf(), np.float64).reshape(-1, 3)
