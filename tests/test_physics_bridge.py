@@ -8,6 +8,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
+import pymunk
 import pytest
 
 import flatland_ma
@@ -80,3 +82,27 @@ def test_a_tier_of_no_name_fails_and_no_tier_beyond_the_best_is_given():
     assert physics._chosen(Tier.BATCH, "compiled") is Tier.BATCH
     assert physics._chosen(Tier.COMPILED, "Batch") is Tier.BATCH
     assert physics._chosen(Tier.COMPILED, None) is Tier.COMPILED
+
+
+def test_poses_read_through_pymunk_batch_are_the_attributes_through_changes():
+    space, bodies = pymunk.Space(), []
+    for k in range(6):
+        body = pymunk.Body(1.0, 1.0)
+        body.position, body.angle, body.velocity = (k * 1.5, -k), 0.1 * k, (1.0, k)
+        body.center_of_gravity = (0.25, -0.5)
+        space.add(body, pymunk.Circle(body, 0.5))
+        bodies.append(body)
+    space.add(pymunk.Body(body_type=pymunk.Body.KINEMATIC))  # a body not asked about
+    batch = physics.SpacePoses(np.zeros((6, 3)), bodies)
+    plain = physics.AttributePoses(np.zeros((6, 3)), bodies)
+    assert isinstance(physics.poses_of(np.zeros((6, 3)), bodies), physics.SpacePoses)
+    assert isinstance(physics.poses_of(np.zeros((2, 3)), bodies[:2]), physics.AttributePoses)
+    for change in (None, "remove", "add"):
+        if change == "remove":
+            space.remove(bodies[2])  # retired: read through its attributes
+        if change == "add":
+            space.add(pymunk.Body(1.0, 1.0))
+        space.step(0.01)
+        batch.read()
+        plain.read()
+        np.testing.assert_array_equal(batch.pose, plain.pose)

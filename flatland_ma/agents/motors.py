@@ -139,8 +139,8 @@ class Poses:
     """Many worlds' moving bodies' poses, read back at once: ``place(w, pose, bodies)``
     when world ``w`` gets a new episode (``pose``: its (bodies, 3) array, filled as
     ``Geometry.refresh_poses`` fills it), ``read(which)`` for the worlds ``which``: in the
-    physics bridge's compiled tier in one compiled call, in its batch tier one
-    ``pymunk.batch`` call per world. ``fits()``: whether the tier in use reads poses."""
+    physics bridge's compiled tier in one compiled call, in its batch tier world by world
+    (``physics.poses_of``). ``fits()``: whether the tier in use reads poses."""
 
     def __init__(self, worlds: int):
         self._compiled = physics.TIER is physics.Tier.COMPILED
@@ -148,7 +148,7 @@ class Poses:
         self._bodies = filled(np.zeros(0, np.intp), worlds)
         self._keep: list[list] = [[] for _ in range(worlds)]
         """Each world's bodies: their structs live while they are referenced here."""
-        self._spaces: list[physics.SpacePoses | None] = [None] * worlds
+        self._spaces: list[physics.SpacePoses | physics.AttributePoses | None] = [None] * worlds
 
     @staticmethod
     def fits() -> bool:
@@ -156,7 +156,7 @@ class Poses:
 
     def place(self, w: int, pose: np.ndarray, bodies: list[pymunk.Body]) -> None:
         if not self._compiled:
-            self._spaces[w] = physics.SpacePoses(pose, bodies)
+            self._spaces[w] = physics.poses_of(pose, bodies)
             return
         self._keep[w] = list(bodies)
         put(self._poses, w, pose)
