@@ -100,7 +100,8 @@ performance-page: $(STAMP) $(VMAS_VENV)/.installed
 	$(BIN)/python -m benchmarks.performance_table
 
 # The scenario format's reference and the JSON schema shipped for editors, both written
-# from the models (tests/test_scenario_schema.py checks that they are up to date).
+# from the models, and the shipped scenarios' index (what registering ids needs), from the
+# files (tests/test_scenario_schema.py and tests/test_registration_index.py check them).
 reference: $(STAMP)
 	$(BIN)/python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 

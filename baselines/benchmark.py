@@ -28,8 +28,12 @@ one, for the task's budget of agent-steps (``baselines/benchmark.yaml``), then t
 checkpoint is scored (a stream of tasks: by its learner's last evaluation block).
 
 Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (the score, each episode's,
-the budget, agent-steps, CPU and wall seconds, versions, commit, machine load); a seed
-whose file exists is skipped, so an interrupted run resumes. Checkpoints and logs go to
+the budget, agent-steps, CPU and wall seconds, the version of every scenario the task
+plays, package versions, commit, machine load); a seed whose file exists is skipped, so an
+interrupted run resumes. Results of different versions of a task never mix: a seed file of
+another version than the task's today stops the run (``VersionMismatch``), and
+``baselines.benchmark_table`` refuses a task whose files disagree. A file written before
+tasks carried versions counts as version 0 of every scenario it plays. Checkpoints and logs go to
 ``<runs>/<task>/`` (not committed).
 """
 
@@ -223,6 +227,47 @@ def train_stream(name: str, seed: int, task: TaskConfig, runs: Path, config) -> 
 # -- records -----------------------------------------------------------------------------
 
 
+class VersionMismatch(ValueError):
+    """Results of a task's other version where this one's would go, or beside them."""
+
+
+def task_versions(name: str, kind: str) -> dict[str, int]:
+    """The version of every scenario a task plays, by scenario: the scenario itself, or
+    each scenario of a stream's tasks (with the stream's overrides, as it plays them)."""
+    if kind == "scenario":
+        from flatland_ma.scenario.loader import load_scenario
+
+        return {name: load_scenario(name).version}
+    from flatland_ma.lifelong import load_stream
+
+    stream = load_stream(name)
+    spec = stream.spec
+    named = [t.scenario for t in spec.tasks] if spec.tasks else [spec.never_ending.scenario]
+    return {str(n): scenario.version for n, scenario in zip(named, stream.scenarios)}
+
+
+def recorded_versions(record: dict, today: dict[str, int]) -> dict[str, int]:
+    """The scenario versions a result was made on (a record from before tasks carried
+    versions: version 0 of each scenario the task plays today)."""
+    return record.get("task_versions", dict.fromkeys(today, 0))
+
+
+def check_versions(path: Path, today: dict[str, int]) -> None:
+    """``VersionMismatch`` if the result at ``path`` was made on other versions."""
+    made = recorded_versions(json.loads(path.read_text(encoding="utf-8")), today)
+    if made != today:
+        raise VersionMismatch(
+            f"{path} was made on {versions_text(made)}, the task is now {versions_text(today)}: "
+            "results of different versions never mix; move the task's old results away "
+            "and run it again"
+        )
+
+
+def versions_text(versions: dict[str, int]) -> str:
+    """``{"fruits_poisons": 1}`` -> ``fruits_poisons v1``."""
+    return ", ".join(f"{name} v{version}" for name, version in sorted(versions.items()))
+
+
 def versions() -> dict[str, str]:
     out = {"python": platform.python_version()}
     for package in ("flatland_ma", "numpy", "pymunk", "numba", "torch"):
@@ -286,6 +331,7 @@ def run_one(name: str, kind: str, method: str, seed: int, config, runs: Path) ->
     record = {
         "task": name,
         "kind": kind,
+        "task_versions": task_versions(name, kind),
         "method": method,
         "seed": seed,
         "score": round(score, 6),
@@ -330,9 +376,15 @@ def never_ending(name: str) -> bool:
 
 def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS, hours: float = 0.0):
     """Every method (in order) on every task, every seed not yet written; the files written.
-    With ``hours``, no seed is started after that many hours (a bounded session)."""
+    With ``hours``, no seed is started after that many hours (a bounded session).
+    ``VersionMismatch`` before anything runs if a task's results in ``out`` were made on
+    other versions of its scenarios than today's."""
     written: list[Path] = []
     stop = time.monotonic() + hours * 3600.0 if hours else float("inf")
+    for name, kind in tasks:  # before anything runs: no result of another version beside
+        today = task_versions(name, kind)
+        for path in sorted((out / name).glob("*/seed_*.json")):
+            check_versions(path, today)
     for method in methods:
         for name, kind in tasks:
             if method == "ppo" and not ppo_possible(name, kind):

@@ -21,7 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.benchmark import OUT, ROOT, list_tasks, ppo_possible
+from baselines.benchmark import (
+    OUT,
+    ROOT,
+    VersionMismatch,
+    list_tasks,
+    ppo_possible,
+    task_versions,
+    versions_text,
+)
 from baselines.benchmark_config import METHODS, BenchmarkConfig, load_config
 from baselines.levels import LEVELS_OUT, read_levels, render_levels
 from flatland_ma.evaluation.stats import normalise, stratified_bootstrap
@@ -42,12 +50,31 @@ VERDICTS = {
 }
 
 
+def _version_key(versions: dict | None) -> str:
+    """One text per set of versions; a record from before tasks carried versions (None)
+    counts as version 0 of every scenario."""
+    versions = {k: v for k, v in (versions or {}).items() if v != 0}
+    return versions_text(versions) if versions else "version 0"
+
+
 def read_results(root: Path) -> dict[str, dict[str, list[dict]]]:
-    """``{task: {method: [record of each seed, by seed]}}`` from ``root``'s JSON files."""
+    """``{task: {method: [record of each seed, by seed]}}`` from ``root``'s JSON files;
+    ``VersionMismatch`` if one task's files were made on different versions."""
     out: dict[str, dict[str, list[dict]]] = {}
+    made: dict[str, dict[str, Path]] = {}
     for path in sorted(root.glob("*/*/seed_*.json")):
         record = json.loads(path.read_text(encoding="utf-8"))
         out.setdefault(record["task"], {}).setdefault(record["method"], []).append(record)
+        made.setdefault(record["task"], {}).setdefault(
+            _version_key(record.get("task_versions")), path
+        )
+    for task, found in made.items():
+        if len(found) > 1:
+            (one, first), (other, second) = list(found.items())[:2]
+            raise VersionMismatch(
+                f"results of {task} were made on different versions: {first} on {one}, "
+                f"{second} on {other}; results of different versions never mix"
+            )
     for methods in out.values():
         for records in methods.values():
             records.sort(key=lambda r: r["seed"])
@@ -104,7 +131,10 @@ def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None =
     """Every task's row and the aggregate over tasks, from the JSON under ``root`` (and the
     level runs under ``levels``, if given)."""
     results = read_results(root)
-    rows = [task_row(n, k, results.get(n, {}), config) for n, k in (tasks or list_tasks())]
+    tasks = tasks or list_tasks()
+    for name, kind in tasks:
+        _check_current(name, kind, results.get(name, {}))
+    rows = [task_row(n, k, results.get(n, {}), config) for n, k in tasks]
     scored = [r["normalised_seeds"] for r in rows if r["normalised"] is not None]
     aggregate = None
     if scored:
@@ -131,6 +161,18 @@ def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None =
         "episodes": config.episodes,
         "levels": read_levels(levels) if levels is not None else None,
     }
+
+
+def _check_current(name: str, kind: str, methods: dict[str, list[dict]]) -> None:
+    """``VersionMismatch`` if a task's results were made on other versions than today's."""
+    records = [r for rs in methods.values() for r in rs]
+    today = _version_key(task_versions(name, kind))
+    if records and _version_key(records[0].get("task_versions")) != today:
+        made = _version_key(records[0].get("task_versions"))
+        raise VersionMismatch(
+            f"the results of {name} were made on {made}, the task is now {today}: run "
+            "baselines.benchmark for it again (after moving its old results away)"
+        )
 
 
 # -- the page ----------------------------------------------------------------------------

@@ -36,6 +36,7 @@ from flatland_ma.policies.networks import (  # noqa: F401
     keras_init,
     trunk_length,
 )
+from flatland_ma.registration import gym_id
 
 FIXED_COLUMNS = ("seed", "episode", "step", "agent", "return", "wall_time")
 """Every run's CSV columns; the scenario's counters go between ``return`` and ``wall_time``.
@@ -96,8 +97,9 @@ class TimedEnv(gymnasium.Wrapper):
 
 def make_env(scenario: str) -> TimedEnv:
     """The Gymnasium env of a single-agent scenario, timed: ``key_door`` is
-    ``flatland_ma/KeyDoor-v0``, registered when flatland_ma is imported."""
-    env_id = f"flatland_ma/{''.join(part.capitalize() for part in scenario.split('_'))}-v0"
+    ``flatland_ma/KeyDoor-v0`` (its id names its version), registered when flatland_ma is
+    imported."""
+    env_id = gym_id(scenario) if scenario in flatland_ma.list_scenarios() else None
     if env_id not in flatland_ma.GYM_IDS:
         raise ValueError(
             f"{scenario!r} has no Gymnasium id (a multi-agent scenario, or no scenario); "

@@ -5,10 +5,11 @@ env = flatland_ma.parallel_env("fruits_poisons_multi")   # PettingZoo parallel
 env = flatland_ma.env("fruits_poisons")                  # PettingZoo AEC
 gymnasium.make("flatland_ma/FruitsPoisons-v0")           # Gymnasium, one agent
 
-Importing the package registers the Gymnasium ids (reading the scenario files only); the
-physics, the compiled kernels and the PettingZoo interfaces are imported on first use of
-the names that need them (``parallel_env``, ``env``, ``check_scenario``), so that a
-command such as ``flatland-ma list`` starts quickly.
+Importing the package registers the Gymnasium ids (from the shipped scenarios' index:
+no file is parsed until an env is made, ``flatland_ma.registration``); the scenario
+loader, the physics, the compiled kernels and the PettingZoo interfaces are imported on
+first use of the names that need them (``load_scenario``, ``parallel_env``, ``env``,
+``check_scenario``), so that a command such as ``flatland-ma list`` starts quickly.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
 from flatland_ma.registration import register_gym_ids, register_stream_ids
-from flatland_ma.scenario.loader import list_scenarios, load_scenario
+from flatland_ma.scenario.shipped import list_scenarios
 
 # OpenMP's idle threads (the ray kernel's, and torch's: one library) sleep instead of
 # spinning, unless the user chose otherwise. It must be set before OpenMP starts (none of
@@ -34,6 +35,7 @@ if TYPE_CHECKING:
     from flatland_ma.envs.shards import ShardedParallelEnv
     from flatland_ma.envs.vector import BatchedParallelEnv
     from flatland_ma.extensions import register
+    from flatland_ma.scenario.loader import load_scenario
 
 try:  # the installed distribution's version: pyproject.toml is its one source
     __version__ = version("flatland-ma")
@@ -53,6 +55,7 @@ _LAZY = {
     "BatchedParallelEnv": ("flatland_ma.envs.vector", "BatchedParallelEnv"),
     "ShardedParallelEnv": ("flatland_ma.envs.shards", "ShardedParallelEnv"),
     "register": ("flatland_ma.extensions", "register"),
+    "load_scenario": ("flatland_ma.scenario.loader", "load_scenario"),
 }
 """Names imported on first use: ``parallel_env(scenario="fruits_poisons",
 render_mode=None, max_cycles=None, **overrides)`` is the parallel env's class;

@@ -69,6 +69,13 @@ def check(args) -> None:
         raise OptionError("--worlds", str(err)) from None
 
 
+def _tier() -> str:
+    """The physics bridge's tier in use (``flatland_ma.world.physics``)."""
+    from flatland_ma.world import physics
+
+    return physics.describe()
+
+
 def run(args) -> int:
     if args.scale:
         return _scale(args)
@@ -92,8 +99,10 @@ def run(args) -> int:
             for r in results
         ]
         sensing = [{"setup": c.label, "us_per_agent_step": c.micros_per_agent_step} for c in costs]
-        print(json.dumps({"steps": steps, "environments": envs, "sensing": sensing}, indent=1))
+        figures = {"steps": steps, "physics_tier": _tier(), "environments": envs}
+        print(json.dumps({**figures, "sensing": sensing}, indent=1))
         return 0
+    print(f"physics tier: {_tier()}")
     print(format_table(results))
     print()
     print(format_costs(costs))
@@ -107,7 +116,8 @@ def _scale(args) -> int:
     seconds = args.seconds or bench_scale.SECONDS
     scale = bench_scale.run(worlds, seconds, not args.no_ppo)
     if args.json:
-        print(json.dumps(bench_scale.as_json(scale), indent=1))
+        print(json.dumps({"physics_tier": _tier(), **bench_scale.as_json(scale)}, indent=1))
     else:
+        print(f"physics tier: {_tier()}")
         print(bench_scale.format_table(scale))
     return 0

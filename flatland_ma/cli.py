@@ -235,7 +235,7 @@ def _list(args) -> int:
 
     for name in list_scenarios():
         spec = load_scenario(name)
-        gym = f"  [{gym_id(name)}]" if spec.n_agents == 1 else ""
+        gym = f"  [{gym_id(name, spec.version)}]" if spec.n_agents == 1 else ""
         print(f"{name:28} {spec.n_agents} agent(s)  {spec.description}{gym}")
     return 0
 

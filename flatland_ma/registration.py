@@ -1,5 +1,14 @@
 """Gymnasium ids for every single-agent scenario, registered when the package is imported.
 
+An id names its scenario and the scenario's ``version`` (``fruits_poisons`` at version 0
+is ``flatland_ma/FruitsPoisons-v0``); only the current version of each is registered, so
+an id of an older version fails in ``gymnasium.make``, which names the versions there are.
+
+The ids are registered from the shipped scenarios' index (``flatland_ma.scenario.shipped``:
+each one's version, number of agents and episode length, read without parsing the files);
+a scenario is parsed and validated when an env is made. Should the files no longer match
+the index, they are parsed here instead.
+
 Each id is registered with its scenario's ``episode.max_steps`` as ``max_episode_steps``,
 so ``gymnasium.make``'s ``TimeLimit`` truncates there unless ``max_episode_steps=N`` says
 otherwise; the env is built with ``time_limit=False`` so that it does not truncate too.
@@ -16,41 +25,58 @@ from __future__ import annotations
 
 import gymnasium
 
-from flatland_ma.scenario.loader import list_scenarios, list_streams, load_scenario
+from flatland_ma.scenario.shipped import list_scenarios, list_streams, read_index
 
 NAMESPACE = "flatland_ma"
 
 
-def gym_id(scenario: str) -> str:
-    """``fruits_poisons`` -> ``flatland_ma/FruitsPoisons-v0``."""
-    return f"{NAMESPACE}/{''.join(part.capitalize() for part in scenario.split('_'))}-v0"
+def _camel(name: str) -> str:
+    return "".join(part.capitalize() for part in name.split("_"))
+
+
+def gym_id(scenario: str, version: int | None = None) -> str:
+    """``fruits_poisons`` at version 0 -> ``flatland_ma/FruitsPoisons-v0``; without
+    ``version``, the shipped scenario's own (its file's ``version``)."""
+    if version is None:
+        version = _entries()[scenario]["version"]
+    return f"{NAMESPACE}/{_camel(scenario)}-v{version}"
 
 
 def stream_gym_id(stream: str) -> str:
     """``cross_objective`` -> ``flatland_ma/CrossObjectiveStream-v0``."""
-    return gym_id(stream).replace("-v0", "Stream-v0")
+    return f"{NAMESPACE}/{_camel(stream)}Stream-v0"
 
 
-def single_agent_scenarios() -> dict[str, int]:
-    """Shipped scenarios with one agent, each with its ``episode.max_steps``."""
-    limits = {}
-    for name in list_scenarios():
-        spec = load_scenario(name)  # the file alone: nothing is built
-        if spec.n_agents == 1:
-            limits[name] = spec.episode.max_steps
-    return limits
+def _entries() -> dict[str, dict[str, int]]:
+    """Each shipped scenario's version, number of agents and episode length: from the
+    index, or from the files if they changed since it was written."""
+    index = read_index()
+    if index is not None and sorted(index) == list_scenarios():
+        return index
+    from flatland_ma.scenario.index import index_of_files
+
+    return index_of_files()["scenarios"]
+
+
+def single_agent_scenarios() -> dict[str, tuple[int, int]]:
+    """Shipped scenarios with one agent, each with its ``version`` and ``episode.max_steps``."""
+    return {
+        name: (entry["version"], entry["max_steps"])
+        for name, entry in _entries().items()
+        if entry["n_agents"] == 1
+    }
 
 
 def register_gym_ids() -> list[str]:
     return [
         _register(
-            gym_id(name),
+            gym_id(name, version),
             entry_point="flatland_ma.envs.gym:FlatlandGymEnv",
             vector_entry_point="flatland_ma.envs.gym_vector:make_vector",
             max_episode_steps=max_steps,
             kwargs={"scenario": name, "time_limit": False},
         )
-        for name, max_steps in single_agent_scenarios().items()
+        for name, (version, max_steps) in single_agent_scenarios().items()
     ]
 
 

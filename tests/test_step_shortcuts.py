@@ -20,7 +20,7 @@ from gymnasium.utils.env_checker import data_equivalence
 
 import flatland_ma
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.world import world as world_module
+from flatland_ma.world import physics
 
 SCENARIOS = flatland_ma.list_scenarios()
 
@@ -165,11 +165,13 @@ def test_the_grid_cache_gives_what_binning_gives_and_stays_bounded():
 
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_the_direct_space_step_gives_what_pymunks_step_gives(scenario, monkeypatch):
-    assert world_module.FAST_STEP  # pymunk 7, as pyproject asks: the shortcut is taken
+    assert physics.TIER is physics.Tier.COMPILED  # the pinned pymunk: the shortcut is taken
     fast = flatland_ma.parallel_env(scenario, max_cycles=30)
     slow = flatland_ma.parallel_env(scenario, max_cycles=30)
     a, _ = fast.reset(seed=2)
+    monkeypatch.setattr(physics, "TIER", physics.Tier.BATCH)  # a world built now: Space.step
     b, _ = slow.reset(seed=2)
+    assert fast.episode.world._step is not slow.episode.world._step
     rng = np.random.default_rng(2)
     while fast.agents:
         actions = {}
@@ -177,9 +179,7 @@ def test_the_direct_space_step_gives_what_pymunks_step_gives(scenario, monkeypat
             space = fast.action_space(agent)
             space.seed(int(rng.integers(1 << 30)))
             actions[agent] = space.sample()
-        monkeypatch.setattr(world_module, "FAST_STEP", True)
         one = fast.step(actions)
-        monkeypatch.setattr(world_module, "FAST_STEP", False)
         two = slow.step(actions)
         assert data_equivalence(one, two, exact=True)
         np.testing.assert_array_equal(fast.state(), slow.state())
@@ -208,7 +208,7 @@ def _colliding_pair():
 def test_what_callbacks_queue_during_a_direct_step_is_done_after_it():
     fast, fast_ran = _colliding_pair()
     slow, slow_ran = _colliding_pair()
-    world_module._step_space(fast, 1e-3)
+    physics.step_directly(fast, 1e-3)
     slow.step(1e-3)
     assert slow_ran == [1] and len(slow.shapes) == 1  # the pair met in the step
     assert fast_ran == slow_ran and len(fast.shapes) == len(slow.shapes)

@@ -54,7 +54,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from gymnasium.vector.utils import batch_space
 
-from flatland_ma.agents.motors import FIELDS_FOUND, Motors, Poses
+from flatland_ma.agents.motors import Motors, Poses
 from flatland_ma.envs.batched_steps import checked_at_once, checked_by_slot, drive, whole_image
 from flatland_ma.envs.buffers import clear, put_column, world_seeds
 from flatland_ma.envs.flatten import FlatLayout, FlatPart
@@ -149,7 +149,7 @@ class BatchedParallelEnv:
         self._actuator = first._actuators[0]
         self._motors = (
             Motors(self.num_slots)
-            if all(a.n_controls == 0 for a in first._actuators) and FIELDS_FOUND
+            if all(a.n_controls == 0 for a in first._actuators) and Motors.available()
             else None
         )
         """Every plain agent's motor, driven at once (None: bodies with parts)."""

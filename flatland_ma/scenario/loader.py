@@ -11,7 +11,6 @@ from __future__ import annotations
 import difflib
 import os
 from collections.abc import Mapping
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -29,41 +28,19 @@ from flatland_ma.scenario.files import check_regular_file, read_text
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.overrides import OVERRIDES, plain_overrides
 from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.scenario.shipped import SCENARIO_SUFFIXES, list_scenarios, scenario_dir
+from flatland_ma.scenario.shipped import list_streams as list_streams  # importable from here
+from flatland_ma.scenario.shipped import stream_dir as stream_dir  # too, as before
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
-SCENARIO_PACKAGE = "flatland_ma.scenarios"
-"""The package the shipped scenario files install as: ``pyproject.toml`` maps the
-top-level ``scenarios/`` folder onto it."""
 SCHEMA_FILE = "scenario.schema.json"
 """The JSON schema of scenario files (for editors), shipped beside the scenarios."""
-SCENARIO_SUFFIXES = (".yaml", ".yml")
 _MAX_EXTENDS = 8
-
-
-def scenario_dir() -> Path:
-    """The folder of scenario files shipped with the package, wherever it is installed
-    (pip unpacks wheels, so it is a folder on disk in editable and wheel installs alike)."""
-    return Path(str(resources.files(SCENARIO_PACKAGE)))
 
 
 def schema_path() -> Path:
     """The shipped JSON schema of scenario files, for editors' completion and checks."""
     return scenario_dir() / SCHEMA_FILE
-
-
-def list_scenarios() -> list[str]:
-    """Names of the scenarios shipped with the package, sorted."""
-    return sorted(p.stem for p in scenario_dir().iterdir() if p.suffix in SCENARIO_SUFFIXES)
-
-
-def stream_dir() -> Path:
-    """The folder of the shipped task streams (``flatland_ma.lifelong`` reads them)."""
-    return scenario_dir() / "streams"
-
-
-def list_streams() -> list[str]:
-    """Names of the shipped streams, sorted."""
-    return sorted(p.stem for p in stream_dir().glob("*.yaml"))
 
 
 def scenario_path(name: str | Path) -> Path:

@@ -1,5 +1,7 @@
 """The scenario format's reference, written from the schema itself: ``docs/scenarios.md``
-for authors and ``scenario.schema.json`` (shipped beside the scenarios) for editors.
+for authors and ``scenario.schema.json`` (shipped beside the scenarios) for editors; and,
+beside the schema, the shipped scenarios' index (``index.json``, from the files:
+``flatland_ma.scenario.shipped``).
 
     python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 
@@ -19,7 +21,9 @@ from typing import Any
 
 from flatland_ma.scenario import budget
 from flatland_ma.scenario.colors import NAMED_COLORS_255
+from flatland_ma.scenario.index import index_text
 from flatland_ma.scenario.json_schema import VALUE_TYPES, file_schema, schema_text
+from flatland_ma.scenario.shipped import INDEX_FILE
 
 INTRO = """\
 # Scenario files
@@ -80,6 +84,12 @@ files.
   (above), are the loader's.
 - **Random draws** (layouts drawn per episode, spawns, respawns, randomly placed zones) all
   come from the generator seeded by `reset(seed=...)`.
+- **Versions**: `version` (default 0) names the task's dynamics, rewards and observations.
+  A change of any of them, by the file or by the library, bumps it and says so in the
+  changelog; the Gymnasium id names it (`flatland_ma/FruitsPoisons-v0`; only the current
+  version is registered), benchmark results record it and are never mixed across
+  versions, and every shipped scenario's recorded trajectories
+  (`tests/data/trajectories/`) hold its current version to the bit.
 
 ## Example
 
@@ -352,6 +362,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     args.markdown.write_text(render(), encoding="utf-8")
     args.schema.write_text(schema_text(), encoding="utf-8")
+    (args.schema.parent / INDEX_FILE).write_text(index_text(args.schema.parent), encoding="utf-8")
 
 
 if __name__ == "__main__":

@@ -119,6 +119,12 @@ class EpisodeSpec(Spec):
 class ScenarioSpec(Spec):
     description: Annotated[str, Field(strict=True, max_length=200)] = ""
     """One line shown by ``flatland-ma list``."""
+    version: Annotated[int, Field(strict=True, ge=0, le=999)] = 0
+    """The task's version. A change of the file, or of the library, that changes the task's
+    dynamics, rewards or observations bumps it (and says so in the changelog). Gymnasium
+    ids name it (``flatland_ma/FruitsPoisons-v0``), benchmark results record it and are
+    never mixed across versions. A file that ``extends`` another inherits its version
+    unless it gives its own: a change of the file it extends changes it too."""
     n_agents: Annotated[int, Field(strict=True, ge=1, le=64)] = 1
     """How many agents share the world (named agent_0, agent_1, ..., or by team: see
     ``agent_names``)."""

@@ -101,7 +101,7 @@ class Summary:
     @staticmethod
     def of(spec: ScenarioSpec, name: str | None) -> Summary:
         """``name``: a shipped scenario's (whose one-agent worlds have a Gymnasium id)."""
-        gym = gym_id(name) if name is not None and spec.n_agents == 1 else None
+        gym = gym_id(name, spec.version) if name is not None and spec.n_agents == 1 else None
         return Summary(spec.description, spec.n_agents, gym)
 
 

@@ -8,60 +8,14 @@ from collections.abc import Iterable
 from typing import cast
 
 import pymunk
-from pymunk._chipmunk import lib as _chipmunk
 
+from flatland_ma.world import physics
 from flatland_ma.world.channel import Channel
 from flatland_ma.world.contacts import ContactLog
 from flatland_ma.world.entities import Category, CollisionType, Door, Entity, Item, Obstacle, Zone
 
 _SOLID_OR_ITEM = pymunk.ShapeFilter(mask=Category.EVERYTHING)
 _AGENT_TYPES = (CollisionType.AGENT, CollisionType.GRASPER)
-_QUEUES = ("_bodies_to_check", "_add_later", "_remove_later", "_post_step_callbacks")
-"""What pymunk's ``Space.step`` handles around Chipmunk's step: bodies added since the
-last step (checked), and what callbacks asked to add, remove or run after it."""
-
-
-def _fits_fast_step() -> bool:
-    """Whether this pymunk keeps a space's queues and lock where ``_step_space`` expects
-    them (pymunk 7's ``Space``); otherwise every step goes through ``Space.step``."""
-    probe = pymunk.Space()
-    names = (*_QUEUES, "_removed_shapes", "_locked", "_space", "threaded")
-    return pymunk.version.startswith("7.") and all(hasattr(probe, n) for n in names)
-
-
-FAST_STEP = _fits_fast_step()
-_cp_step = _chipmunk.cpSpaceStep
-
-
-def _step_space(space: pymunk.Space, dt: float) -> None:
-    """``space.step(dt)``: the same Chipmunk step, without the Python that pymunk runs
-    around it when there is nothing for it to do (about half the cost of a small world's
-    step). When nothing is queued (``_QUEUES``) pymunk's step is: lock, Chipmunk's step,
-    forget the shapes removed before it, unlock; a callback that queues something during
-    the step is then handled as pymunk does, by the rest of its step."""
-    space._locked = True
-    try:
-        _cp_step(space._space, dt)
-        space._removed_shapes.clear()
-    finally:
-        space._locked = False
-    if space._add_later or space._remove_later or space._post_step_callbacks:
-        _finish_step(space)
-
-
-def _finish_step(space: pymunk.Space) -> None:
-    """The end of pymunk 7's ``Space.step``: what callbacks queued during it."""
-    space.add(*space._add_later)
-    space._add_later.clear()
-    removed = set()
-    while space._remove_later:
-        thing, _ = space._remove_later.popitem()
-        if thing not in removed:
-            removed.add(thing)
-            space._remove(thing)
-    for key in space._post_step_callbacks:
-        space._post_step_callbacks[key](space)
-    space._post_step_callbacks.clear()
 
 
 class World:
@@ -79,6 +33,7 @@ class World:
         self.dt = dt
         self.substeps = substeps
         self.substep_dt = dt / substeps
+        self._step = physics.stepper()
         self.entities: list[Entity] = []
         self.entity_of_shape: dict[pymunk.Shape, Entity] = {}
         self.agents: list[Entity] = []
@@ -238,18 +193,7 @@ class World:
         self.log.clear()
         if self.zones:
             self._inside = self._occupancy()
-        space, dt = self.space, self.substep_dt
-        for _ in range(self.substeps):
-            if FAST_STEP and not (
-                space._bodies_to_check
-                or space._add_later
-                or space._remove_later
-                or space._post_step_callbacks
-                or space.threaded
-            ):
-                _step_space(space, dt)
-            else:
-                space.step(dt)
+        self._step(self.space, self.substep_dt, self.substeps)
         if self.zones:
             self._log_zones()
 

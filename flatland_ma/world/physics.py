@@ -1,0 +1,371 @@
+"""The one bridge to pymunk beyond its documented API: every read or write of Chipmunk's
+structs by address and every step past ``Space.step`` lives here, nowhere else.
+
+It works in one of three tiers, chosen once per process (``TIER``) from what this
+pymunk allows (``BEST``), each giving the same numbers to the bit:
+
+``COMPILED``
+    Compiled code reads and writes bodies' fields where Chipmunk keeps them in its
+    ``cpBody`` (checked once against pymunk's own accessors on a probe body), and a
+    space is stepped through Chipmunk's ``cpSpaceStep`` directly, without the Python that
+    ``Space.step`` runs around it when nothing is queued (about half of a small world's
+    step). Needs the struct layout and the ``Space`` internals of pymunk 7.
+``BATCH``
+    Poses come back a space at a time through ``pymunk.batch.get_space_bodies`` (public,
+    though pymunk calls it experimental) in worlds of ``BATCH_FROM`` moving bodies or
+    more, where that is cheaper than attributes; spaces step through ``Space.step``; each
+    agent drives its body through pymunk's attributes.
+``ATTRIBUTES``
+    pymunk's documented attributes and ``Space.step`` only.
+
+The environment variable ``FLATLAND_MA_PHYSICS`` (``compiled``, ``batch`` or
+``attributes``) asks for a tier, at most ``BEST``. When the tier in use is slower than
+``COMPILED``, a ``RuntimeWarning`` says so once, at import; ``flatland-ma bench`` prints
+the tier (``describe``). What is built takes the tier in use when it is built (a world
+its ``stepper``, a batched env its motors and pose reader).
+
+Compiled code elsewhere reaches bodies through the ``*_at`` functions below, by the
+address ``address`` gives. Numba's cache does not notice a change of a function called from
+another module: after editing one of them, clear the ``__pycache__`` of their callers.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import warnings
+from collections.abc import Callable
+from enum import IntEnum
+from typing import Any
+
+import numba as nb
+import numpy as np
+import pymunk
+from numba import types
+from numba.extending import intrinsic
+from pymunk._chipmunk import ffi
+from pymunk._chipmunk import lib as _chipmunk
+
+_batch: Any
+try:
+    from pymunk import batch as _batch
+except ImportError:  # a pymunk before 7: no batch tier
+    _batch = None
+
+VARIABLE = "FLATLAND_MA_PHYSICS"
+"""The environment variable that asks for a tier."""
+
+
+class Tier(IntEnum):
+    """How pymunk is reached, slowest first (see the module's docstring)."""
+
+    ATTRIBUTES = 1
+    BATCH = 2
+    COMPILED = 3
+
+
+# -- Chipmunk's structs ------------------------------------------------------------------
+
+_VX, _VY, _ANGLE, _SPIN = 10, 11, 14, 15
+"""Where ``cpBody`` keeps v.x, v.y, a and w, in doubles from its start (Chipmunk 7: two
+function pointers, m, m_inv, i, i_inv, cog, p (the centre of gravity's), v, f, a, w)."""
+_TA, _TC, _TX, _TY = 17, 19, 21, 22
+"""Where it keeps its transform's a, c, tx and ty (after t): pymunk's ``position`` (the
+body's origin) is ``a * 0 + c * 0 + tx``, ``b * 0 + d * 0 + ty``."""
+_WORDS = 23
+_QUEUES = ("_bodies_to_check", "_add_later", "_remove_later", "_post_step_callbacks")
+"""What pymunk's ``Space.step`` handles around Chipmunk's step: bodies added since the
+last step (checked), and what callbacks asked to add, remove or run after it."""
+
+
+def address(body: pymunk.Body) -> int:
+    """Where Chipmunk keeps ``body``'s struct (for the ``*_at`` functions)."""
+    return int(ffi.cast("uintptr_t", body._body))
+
+
+def _fields_found() -> bool:
+    """Whether a body's fields lie where ``_VX`` etc. say, tried on a probe body whose
+    centre of gravity is off its origin."""
+    probe = pymunk.Body(1.0, 1.0)
+    probe.center_of_gravity = (0.5, -0.25)
+    probe.angle, probe.position = 0.625, (-1.5, 2.125)
+    probe.velocity, probe.angular_velocity = (3.25, -7.5), 11.75
+    words = (ctypes.c_double * _WORDS).from_address(address(probe))
+    found = [words[k] for k in (_VX, _VY, _ANGLE, _SPIN)]
+    x = words[_TA] * 0.0 + words[_TC] * 0.0 + words[_TX]
+    y = words[_TA + 1] * 0.0 + words[_TC + 1] * 0.0 + words[_TY]
+    return found == [3.25, -7.5, 0.625, 11.75] and (x, y) == tuple(probe.position)
+
+
+def _queues_found() -> bool:
+    """Whether this pymunk keeps a space's queues and lock where ``step_directly``
+    expects them (pymunk 7's ``Space``)."""
+    probe = pymunk.Space()
+    names = (*_QUEUES, "_removed_shapes", "_locked", "_space", "threaded")
+    return pymunk.version.startswith("7.") and all(hasattr(probe, n) for n in names)
+
+
+def _batch_found() -> bool:
+    """Whether ``pymunk.batch`` reads ids, positions and angles as this module expects."""
+    try:
+        space, body = pymunk.Space(), pymunk.Body(1.0, 1.0)
+        body.position, body.angle = (1.5, -2.0), 0.25
+        space.add(body)
+        return _space_poses(space, _batch.Buffer()) == ([body.id], [(1.5, -2.0, 0.25)])
+    except (AttributeError, TypeError, ValueError):
+        return False
+
+
+def _pose_fields() -> Any:
+    fields = _batch.BodyFields
+    return fields.BODY_ID | fields.POSITION | fields.ANGLE
+
+
+def _space_poses(space: pymunk.Space, buffer: Any) -> tuple[list, list]:
+    buffer.clear()
+    _batch.get_space_bodies(space, _pose_fields(), buffer)
+    ids = np.frombuffer(buffer.int_buf(), np.uintp).tolist()
+    values = np.frombuffer(buffer.float_buf(), np.float64).reshape(-1, 3)
+    return ids, [tuple(row) for row in values.tolist()]
+
+
+def _best() -> tuple[Tier, str]:
+    """The fastest tier this pymunk allows, and why not a faster one."""
+    if _fields_found() and _queues_found():
+        return Tier.COMPILED, ""
+    why = f"pymunk {pymunk.version} keeps its bodies or spaces elsewhere than pymunk 7.3 does"
+    if _batch_found():
+        return Tier.BATCH, why
+    return Tier.ATTRIBUTES, why + ", and its pymunk.batch differs"
+
+
+def _chosen(best: Tier, asked: str | None) -> Tier:
+    if not asked:
+        return best
+    names = {tier.name.lower(): tier for tier in Tier}
+    if asked.lower() not in names:
+        raise ValueError(f"{VARIABLE}={asked!r}: one of {', '.join(names)}")
+    return min(best, names[asked.lower()])
+
+
+BEST, _WHY = _best()
+"""The fastest tier this pymunk allows."""
+TIER = _chosen(BEST, os.environ.get(VARIABLE))
+"""The tier in use in this process."""
+
+
+def describe() -> str:
+    """The tier in use, in words (``flatland-ma bench`` prints it)."""
+    text = f"{TIER.name.lower()} (pymunk {pymunk.version}"
+    if TIER < BEST:
+        text += f"; {VARIABLE} asked for it, {BEST.name.lower()} is possible"
+    elif TIER < Tier.COMPILED:
+        text += f"; {_WHY}"
+    return text + ")"
+
+
+if TIER < Tier.COMPILED:
+    warnings.warn(
+        f"flatland_ma reaches pymunk through its {describe()} tier, slower than the "
+        "compiled one (1.5-1.8x per world-step in the batched env)",
+        RuntimeWarning,
+        stacklevel=2,
+    )
+
+
+# -- stepping ----------------------------------------------------------------------------
+
+_cp_step = _chipmunk.cpSpaceStep
+
+
+def stepper() -> Callable[[pymunk.Space, float, int], None]:
+    """The function that steps a space in the tier in use: ``step(space, dt, substeps)``
+    is ``space.step(dt)`` ``substeps`` times (a world takes it once, when built)."""
+    return _step_compiled if TIER is Tier.COMPILED else _step_plain
+
+
+def _step_plain(space: pymunk.Space, dt: float, substeps: int) -> None:
+    for _ in range(substeps):
+        space.step(dt)
+
+
+def _step_compiled(space: pymunk.Space, dt: float, substeps: int) -> None:
+    """Chipmunk's step directly whenever pymunk has nothing queued around it."""
+    for _ in range(substeps):
+        if (
+            space._bodies_to_check
+            or space._add_later
+            or space._remove_later
+            or space._post_step_callbacks
+            or space.threaded
+        ):
+            space.step(dt)
+        else:
+            step_directly(space, dt)
+
+
+def step_directly(space: pymunk.Space, dt: float) -> None:
+    """``space.step(dt)``: the same Chipmunk step, without the Python that pymunk runs
+    around it when there is nothing for it to do. When nothing is queued (``_QUEUES``)
+    pymunk's step is: lock, Chipmunk's step, forget the shapes removed before it, unlock;
+    a callback that queues something during the step is then handled as pymunk does, by
+    the rest of its step."""
+    space._locked = True
+    try:
+        _cp_step(space._space, dt)
+        space._removed_shapes.clear()
+    finally:
+        space._locked = False
+    if space._add_later or space._remove_later or space._post_step_callbacks:
+        _finish_step(space)
+
+
+def _finish_step(space: pymunk.Space) -> None:
+    """The end of pymunk 7's ``Space.step``: what callbacks queued during it."""
+    space.add(*space._add_later)
+    space._add_later.clear()
+    removed = set()
+    while space._remove_later:
+        thing, _ = space._remove_later.popitem()
+        if thing not in removed:
+            removed.add(thing)
+            space._remove(thing)
+    for key in space._post_step_callbacks:
+        space._post_step_callbacks[key](space)
+    space._post_step_callbacks.clear()
+
+
+# -- bodies from compiled code (the compiled tier) ---------------------------------------
+
+
+def _pointer_to_doubles(typingctx, where):
+    """A pointer to the doubles at address ``where`` (an integer), in compiled code."""
+    signature = types.CPointer(types.float64)(types.intp)
+
+    def codegen(context, builder, sig, args):
+        return builder.inttoptr(args[0], context.get_value_type(sig.return_type))
+
+    return signature, codegen
+
+
+_doubles_at: Any = intrinsic(_pointer_to_doubles)
+
+
+@nb.njit(cache=True, inline="always")
+def _struct(where):
+    return nb.carray(_doubles_at(where), _WORDS)
+
+
+@nb.njit(cache=True, inline="always")
+def angle_at(where):
+    """The angle of the body at ``where``."""
+    return _struct(where)[_ANGLE]
+
+
+@nb.njit(cache=True, inline="always")
+def spin_at(where):
+    """The angular velocity of the body at ``where``."""
+    return _struct(where)[_SPIN]
+
+
+@nb.njit(cache=True, inline="always")
+def set_spin_at(where, w):
+    _struct(where)[_SPIN] = w
+
+
+@nb.njit(cache=True, inline="always")
+def velocity_at(where):
+    """The velocity (x, y) of the body at ``where``."""
+    body = _struct(where)
+    return body[_VX], body[_VY]
+
+
+@nb.njit(cache=True, inline="always")
+def set_velocity_at(where, vx, vy):
+    """Set the body's velocity, skipping what ``cpBodySetVelocity`` adds: waking the body
+    (the worlds never sleep) and a check that the values are finite."""
+    body = _struct(where)
+    body[_VX], body[_VY] = vx, vy
+
+
+@nb.njit(cache=True)
+def read_poses_at(poses, bodies, which):
+    """``poses[w][i] = (x, y, angle)`` of the body at ``bodies[w][i]``, for each world
+    ``which`` (typed lists of arrays): exactly ``(*body.position, body.angle)``."""
+    for k in range(which.shape[0]):
+        pose, own = poses[which[k]], bodies[which[k]]
+        for i in range(own.shape[0]):
+            body = _struct(own[i])
+            pose[i, 0] = body[_TA] * 0.0 + body[_TC] * 0.0 + body[_TX]
+            pose[i, 1] = body[_TA + 1] * 0.0 + body[_TC + 1] * 0.0 + body[_TY]
+            pose[i, 2] = body[_ANGLE]
+
+
+# -- poses a space at a time (the batch tier) --------------------------------------------
+
+
+class SpacePoses:
+    """The poses of some bodies of one space, read in one ``pymunk.batch`` call: ``read``
+    writes each body's (x, y, angle) into its row of ``pose``; a body taken out of the
+    space (an agent retired in the step) is read through its attributes. Where each body
+    lies in what pymunk hands back is worked out again only when the space's bodies
+    changed."""
+
+    def __init__(self, pose: np.ndarray, bodies: list[pymunk.Body]):
+        self.pose = pose
+        self._bodies = list(bodies)  # their structs live while they are referenced here
+        self._space = next((b.space for b in bodies if b.space is not None), None)
+        self._ids = np.array([b.id for b in bodies], np.uintp)
+        self._buffer = _batch.Buffer()
+        self._fields = _pose_fields()
+        self._seen = b""
+        """The ids pymunk handed back last, as bytes."""
+        self._found, self._rows = np.zeros(0, np.intp), np.zeros(0, np.intp)
+        self._missing: list[int] = list(range(len(bodies)))
+
+    def read(self) -> None:
+        if self._space is not None:
+            buffer = self._buffer
+            buffer.clear()
+            _batch.get_space_bodies(self._space, self._fields, buffer)
+            ids = bytes(buffer.int_buf())
+            if ids != self._seen:
+                self._locate(np.frombuffer(ids, np.uintp))
+                self._seen = ids
+            values = np.frombuffer(buffer.float_buf(), np.float64).reshape(-1, 3)
+            self.pose[self._found] = values[self._rows]
+        for i in self._missing:
+            body = self._bodies[i]
+            self.pose[i] = (*body.position, body.angle)
+
+    def _locate(self, ids: np.ndarray) -> None:
+        """Which of our bodies are among ``ids`` (``_found``), at which rows (``_rows``)."""
+        where = {body_id: row for row, body_id in enumerate(ids.tolist())}
+        rows = [where.get(body_id, -1) for body_id in self._ids.tolist()]
+        self._found = np.array([i for i, r in enumerate(rows) if r >= 0], np.intp)
+        self._rows = np.array([r for r in rows if r >= 0], np.intp)
+        self._missing = [i for i, r in enumerate(rows) if r < 0]
+
+
+class AttributePoses:
+    """``SpacePoses`` through pymunk's attributes: cheaper for a few bodies."""
+
+    def __init__(self, pose: np.ndarray, bodies: list[pymunk.Body]):
+        self.pose = pose
+        self._bodies = list(bodies)
+
+    def read(self) -> None:
+        if self._bodies:
+            self.pose[:] = [(*body.position, body.angle) for body in self._bodies]
+
+
+BATCH_FROM = 5
+"""Moving bodies from which a world's poses are cheaper through ``pymunk.batch`` than
+through attributes: it reads every body of the space, fixed items too, for about 12 µs
+and more (measured per read on pymunk 7.3.1, attributes against batch: 1 body 4.3 and
+12.9 µs, 4 bodies 10.1 and 16.4, 5 bodies 29.5 and 22.0, 8 bodies 34.3 and 19.6)."""
+
+
+def poses_of(pose: np.ndarray, bodies: list[pymunk.Body]) -> SpacePoses | AttributePoses:
+    """The batch tier's reader of these bodies' poses, the cheaper for their number."""
+    return SpacePoses(pose, bodies) if len(bodies) >= BATCH_FROM else AttributePoses(pose, bodies)
