@@ -158,20 +158,28 @@ class Rollout:
     def __init__(self, agent: Agent, env, observation, steps: int):
         T, slots = steps, env.num_slots
         self.steps = steps
-        self.observations = tree_map(
-            lambda x: torch.zeros((T, *x.shape), dtype=torch.from_numpy(np.asarray(x)).dtype),
-            observation,
-        )
+        # Every buffer is a numpy array and a tensor over the same memory: the step loop
+        # writes through numpy (a row costs well under a microsecond; through a tensor's
+        # indexing, several), the update reads the tensors.
+        self._observations = tree_map(lambda x: np.zeros((T, *np.shape(x)), x.dtype), observation)
+        self.observations = tree_map(torch.from_numpy, self._observations)
         """The raw observations, as the env gives them (a dict of arrays for a Dict space),
         in the env's own dtype."""
         self.views = [tree_map(lambda x, t=t: x[t], self.observations) for t in range(T)]
         """Step t's observations, as views."""
-        self.actions = torch.zeros((T, slots, len(agent.sizes)), dtype=torch.long)
+        self._actions = np.zeros((T, slots, len(agent.sizes)), np.int64)
         self.discrete = isinstance(env.single_action_space, gymnasium.spaces.Discrete)
-        self.logprobs, self.rewards, self.values = (torch.zeros((T, slots)) for _ in range(3))
-        self.acting = torch.zeros((T, slots), dtype=torch.bool)
+        self._logprobs, self._rewards, self._values, self._ends, self._stops = (
+            np.zeros((T, slots), np.float32) for _ in range(5)
+        )
+        self._acting = np.zeros((T, slots), bool)
+        self.actions = torch.from_numpy(self._actions)
+        self.logprobs, self.rewards, self.values = (
+            torch.from_numpy(x) for x in (self._logprobs, self._rewards, self._values)
+        )
+        self.acting = torch.from_numpy(self._acting)
         """Whether the env used the slot's action on that step."""
-        self.ends, self.stops = torch.zeros((T, slots)), torch.zeros((T, slots))
+        self.ends, self.stops = torch.from_numpy(self._ends), torch.from_numpy(self._stops)
         """Whether the slot's episode ended on that step (terminated or truncated), and
         whether it terminated (no bootstrap)."""
         self.next_acting = np.ones(slots, bool)
@@ -192,11 +200,11 @@ class Rollout:
         of slots whose action the env used. The rollout keeps
         ``learn_from(reward, terminated) * reward_scale`` (the reward itself when
         ``learn_from`` is None). Returns the last observation."""
-        leaves = tree_leaves(self.observations)
+        stored = tree_leaves(self._observations)
         for t in range(self.steps):
-            for stored, x in zip(leaves, tree_leaves(observation)):
-                stored[t].copy_(torch.from_numpy(x))
-            self.acting[t] = torch.from_numpy(self.next_acting)
+            for into, x in zip(stored, tree_leaves(observation)):
+                into[t] = x
+            self._acting[t] = self.next_acting
             state = None
             if self.states is not None:
                 self.states[t] = state = torch.from_numpy(slot_states(env))
@@ -204,16 +212,18 @@ class Rollout:
                 action, logprob, _, value = agent.act(
                     self.views[t], state=state, generator=self.generator
                 )
-            self.actions[t], self.logprobs[t], self.values[t] = action, logprob, value
+            chosen = self._actions[t]
+            chosen[:] = action.numpy()
+            self._logprobs[t], self._values[t] = logprob.numpy(), value.numpy()
             tick = time.perf_counter()
-            sent = action[:, 0] if self.discrete else action
-            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
+            observation, reward, terminated, truncated, infos = env.step(
+                chosen[:, 0] if self.discrete else chosen
+            )
             self.env_seconds += time.perf_counter() - tick
             done = terminated | truncated
             learnt = reward if learn_from is None else learn_from(reward, terminated)
-            self.rewards[t] = torch.from_numpy(learnt * reward_scale)
-            self.ends[t] = torch.from_numpy(done)
-            self.stops[t] = torch.from_numpy(terminated)
+            self._rewards[t] = learnt * reward_scale
+            self._ends[t], self._stops[t] = done, terminated
             after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
             # The env uses a slot's action next step unless it just finished or was inert.
             self.next_acting = infos["active"] & ~done
