@@ -20,6 +20,7 @@ from flatland_ma.evaluation import command as evaluation
 from flatland_ma.lifelong import command as lifelong
 from flatland_ma.options import OptionError
 from flatland_ma.policies import convert_command
+from flatland_ma.registry import ExtensionError
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 from flatland_ma.studio import command as studio
@@ -248,6 +249,9 @@ def _validate(args) -> int:
         except ScenarioError as err:
             failures += 1
             print(f"{name}: INVALID\n{err}")
+        except ExtensionError as err:  # a user's kind broke its protocol
+            failures += 1
+            print(f"{name}: INVALID (an extension's code)\n{err}")
         except ValueError as err:
             failures += 1
             print(f"{name}: {err}")
