@@ -8,15 +8,30 @@ TORCH := torch==2.13.0
 
 .PHONY: demo test test-slow test-rllib test-clients soak bench performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
 
-$(STAMP): pyproject.toml
+# Two steps: the core (what `make demo` needs: the package and its own dependencies,
+# about 360 MB), then torch and every extra the tests use (about 2.4 GB in all).
+CORE_STAMP := $(VENV)/.core-installed
+
+$(CORE_STAMP): pyproject.toml
+	@echo "==> [setup 1/2] creating $(VENV) ($(PYTHON) -m venv) and updating pip"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet "$(TORCH)" || \
-		$(BIN)/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
-	$(BIN)/python -m pip install --quiet -e ".[dev,train,render,clients,studio]"
+	@echo "==> [setup 2/2] installing flatland_ma and only what it needs to run (numpy, numba,"
+	@echo "    pymunk, gymnasium, pettingzoo, pydantic, pillow, pyyaml: about 360 MB, a minute here)"
+	$(BIN)/python -m pip install --disable-pip-version-check -e .
+	touch $(CORE_STAMP)
+
+$(STAMP): $(CORE_STAMP)
+	@echo "==> [tests 1/2] installing torch $(TORCH) (the CPU build where the index has it)"
+	$(BIN)/python -m pip install --disable-pip-version-check "$(TORCH)" || \
+		$(BIN)/python -m pip install --disable-pip-version-check "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
+	@echo "==> [tests 2/2] installing the extras the tests use: dev, train, render, clients, studio"
+	$(BIN)/python -m pip install --disable-pip-version-check -e ".[dev,train,render,clients,studio]"
 	touch $(STAMP)
 
-demo: $(STAMP)
+demo: $(CORE_STAMP)
+	@echo "==> playing fruits_poisons: 10 episodes each of a scripted and a random agent (the"
+	@echo "    first run compiles the ray kernel; about 20 s in all here)"
 	$(BIN)/flatland-ma demo
 
 # The default suite, spread over every core (pytest-xdist); `make test-slow` runs the long ones.
