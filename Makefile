@@ -22,7 +22,7 @@ $(CORE_STAMP): pyproject.toml
 	touch $(CORE_STAMP)
 
 $(STAMP): $(CORE_STAMP)
-	@echo "==> [tests 1/2] installing torch $(TORCH) (the CPU build where the index has it)"
+	@echo "==> [tests 1/2] installing $(TORCH) (the CPU build where the index has it)"
 	$(BIN)/python -m pip install --disable-pip-version-check "$(TORCH)" || \
 		$(BIN)/python -m pip install --disable-pip-version-check "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
 	@echo "==> [tests 2/2] installing the extras the tests use: dev, train, render, clients, studio"

@@ -11,7 +11,8 @@ try:
     import pygame
 except ImportError as err:  # pragma: no cover - depends on the install
     raise ImportError(
-        'render_mode="human" and play need pygame: pip install "flatland-ma[render]"'
+        'render_mode="human" and play need pygame: pip install pygame (or, in a clone of '
+        "flatland_ma, its render extra: pip install -e '.[render]')"
     ) from err
 
 
