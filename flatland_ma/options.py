@@ -318,7 +318,7 @@ class DescribedSubParsers(argparse._SubParsersAction):
 
     def add_parser(self, name: str, **kwargs):
         if kwargs.get("description") is None and kwargs.get("help"):
-            text = str(kwargs["help"])
+            text = str(kwargs["help"]).replace("%%", "%")  # a help is %-formatted, this not
             kwargs["description"] = text[0].upper() + text[1:] + "."
         return super().add_parser(name, **kwargs)
 

@@ -28,7 +28,10 @@ GENERATOR_KINDS = Kinds("flatland_ma.build", "generator")
 
 class Generator(Kinded, ABC):
     """Base of every generator: ``spec`` is its entry in the file, ``scenario`` the whole
-    file, ``path`` the entry's key path (for messages)."""
+    file, ``path`` the entry's key path (for messages). Required: ``generate``. A
+    generator of your own subclasses this with a spec subclassing
+    ``scenario.spec_world.GeneratorBaseSpec``, joined by ``flatland_ma.register``; the
+    extending guide shows walls and obstacles drawn from one."""
 
     KINDS = GENERATOR_KINDS
 
