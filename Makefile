@@ -111,14 +111,17 @@ performance-page: $(STAMP) $(VMAS_VENV)/.installed
 reference: $(STAMP)
 	$(BIN)/python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 
-# A shipped scenario's picture (as `make docs` draws it) and the scores line of its header
-# comment (random play and its reference solver), which the library tests require.
+# A shipped scenario's picture and animation (as `make docs` draws them) and the scores line
+# of its header comment (random play and its reference solver), which the library tests
+# require.
 scenario-page: $(STAMP)
 	@test -n "$(NAME)" || (echo "usage: make scenario-page NAME=<scenario>" && exit 2)
 	$(BIN)/flatland-ma record $(NAME) --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$(NAME).png
+	$(BIN)/python docs/_ext/animations.py $(NAME)
 	$(BIN)/python -m flatland_ma.scores_header $(NAME)
 
-# Pictures of the scenarios for the README and docs/ (after the format reference).
+# Pictures of the scenarios for the README and docs/ (after the format reference), and a
+# short animation for every scenario page without a recording of its own (docs/images/animations).
 docs: reference
 	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif
 	$(BIN)/flatland-ma record fruits_poisons_multi --steps 120 --seed 3 --out docs/images/fruits_poisons_multi.png
@@ -133,6 +136,7 @@ docs: reference
 		$(BIN)/flatland-ma record $$s --policy carrier --steps 300 --every 3 --seed 1 --out docs/images/tasks/$$s.gif || exit 1; \
 	done
 	$(BIN)/flatland-ma record scent_rooms --policy sniffer --steps 300 --every 3 --seed 1 --out docs/images/tasks/scent_rooms.gif
+	$(BIN)/python docs/_ext/animations.py
 
 # The documentation site in docs/_build/html (the docs extra in .venv): the catalogue pages
 # are written from the shipped scenario, stream and suite files and the tutorials run at

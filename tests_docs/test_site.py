@@ -128,6 +128,16 @@ def test_a_scenario_page_gives_sensor_values_camera_channels_state_and_colour_na
     assert "tokens=1, vocabulary=2" in channel
 
 
+@pytest.mark.parametrize("name", flatland_ma.list_scenarios())
+def test_every_scenario_page_shows_an_animation(name):
+    assert ".gif" in page_text(f"catalogue/scenarios/{name}.html")
+
+
+def test_the_animations_stay_small():
+    animations = list((ROOT / "docs" / "images" / "animations").glob("*.gif"))
+    assert sum(path.stat().st_size for path in animations) < 4_000_000
+
+
 def test_the_catalogue_groups_scenarios_in_a_gallery():
     text = page_text("catalogue/index.html")
     for title in ("Foraging and navigation", "Bodies with parts", "Roles, teams", "Other senses"):

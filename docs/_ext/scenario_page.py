@@ -106,6 +106,8 @@ def _pictures(name: str, page_dir: Path, images: Path) -> list[str]:
     out = []
     still = images / "scenarios" / f"{name}.png"
     moving = images / "tasks" / f"{name}.gif"
+    if not moving.is_file():  # the short animation of make docs (docs/_ext/animations.py)
+        moving = images / "animations" / f"{name}.gif"
     if moving.is_file():
         out += picture(moving, page_dir, f"{name}: an episode of its scripted solver")
     if still.is_file():
