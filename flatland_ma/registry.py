@@ -105,8 +105,12 @@ def make_kind(cls: type, where: str, values: dict, make: Callable, *args, **kwar
     entry's ``values`` (``cls`` itself, or its ``from_spec``), with a fault of a class from
     outside this package (a user's kind) reported as its own: an ``ExtensionError``
     naming the class, the entry (``where``) and its keys."""
+    from flatland_ma.scenario.errors import ScenarioError, SpecError
+
     try:
         return make(*args, **kwargs)
+    except (SpecError, ScenarioError):
+        raise  # a located fault the kind found in its entry: the file's, as it says
     except Exception as err:
         if cls.__module__.startswith("flatland_ma."):
             raise
