@@ -146,6 +146,13 @@ broken = scenario("layout:\n  generators:\n    - {generator: broken}\n")
 attempt("broken", lambda: flatland_ma.check_scenario(broken))
 radar = scenario("agent:\n  sensors:\n    - {type: item_radar}\n")
 attempt("radar", lambda: flatland_ma.load_scenario(radar))
+import contextlib, io
+from flatland_ma.cli import main
+
+out = io.StringIO()
+with contextlib.redirect_stdout(out):
+    status = main(["validate", dial])
+found["validate"] = [status, out.getvalue()]
 print(json.dumps(found))
 """
 
@@ -184,6 +191,12 @@ def test_a_spec_key_the_class_does_not_take_is_the_classs_fault(found):
     assert kind == "ExtensionError" and "please report" not in message
     assert "sensors[0]" in message and "my_world.faulty.Dial" in message
     assert "reach" in message and "accept every key of the spec" in message
+
+
+def test_validate_reports_an_extensions_fault_without_a_traceback(found):
+    status, output = found["validate"]
+    assert status == 1
+    assert "INVALID (an extension's code)" in output and "my_world.faulty.Dial" in output
 
 
 def test_a_part_that_needs_from_spec_is_told_so(found):
