@@ -44,6 +44,7 @@ from flatland_ma.build.census import state_entities, world_state
 from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.envs.flatten import FlatLayout, FlatPart
 from flatland_ma.envs.render_modes import KNOWN_RENDER_MODES, RENDER_MODES
+from flatland_ma.render.display import missing_display, no_window
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.suite import observation_space
@@ -83,6 +84,8 @@ class FlatlandParallelEnv(ParallelEnv):
         flatten: bool = False,
         **overrides,
     ):
+        if render_mode == "human":
+            no_window(missing_display())
         if max_cycles is not None:
             overrides = with_episode_length(overrides, max_cycles)
         if isinstance(scenario, ScenarioSpec):

@@ -28,3 +28,14 @@ def missing_display() -> str | None:
 
 class NoDisplayError(RuntimeError):
     """A window was asked for where none can be seen."""
+
+
+def no_window(why: str | None) -> None:
+    """Raise ``NoDisplayError`` for ``render_mode="human"`` if ``why`` (from
+    ``missing_display``) says no window can be seen here."""
+    if why is not None:
+        raise NoDisplayError(
+            f'render_mode="human" shows a window, and {why}. Use render_mode="rgb_array" for '
+            "frames as arrays (flatland-ma record writes videos), run in a desktop session, "
+            "or set SDL_VIDEODRIVER=dummy for a window nobody sees."
+        )

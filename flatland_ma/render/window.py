@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flatland_ma.render.display import NoDisplayError, missing_display
+from flatland_ma.render.display import missing_display, no_window
 
 try:
     import pygame
@@ -20,13 +20,7 @@ class Window:
     """One pygame window of a fixed size showing RGB frames."""
 
     def __init__(self, size: tuple[int, int], title: str):
-        why = missing_display()
-        if why is not None:
-            raise NoDisplayError(
-                f'render_mode="human" shows a window, and {why}. Use render_mode="rgb_array" '
-                "for frames as arrays (flatland-ma record writes videos), run in a desktop "
-                "session, or set SDL_VIDEODRIVER=dummy for a window nobody sees."
-            )
+        no_window(missing_display())  # the display may have gone since the env was made
         pygame.display.init()
         self.screen = pygame.display.set_mode(size)
         pygame.display.set_caption(title)
