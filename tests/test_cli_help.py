@@ -26,7 +26,7 @@ def test_every_option_of_every_command_shows_its_default():
                 continue
             if isinstance(action, (argparse._HelpAction, argparse._VersionAction)):
                 continue
-            text = formatter._get_help_string(action) % {"default": action.default}
+            text = formatter._expand_help(action)  # as --help shows it
             if "(default:" not in text:
                 missing.append(f"{name} {action.option_strings[0]}")
     assert missing == []

@@ -54,13 +54,13 @@ def _section(title: str, parser: argparse.ArgumentParser, level: int) -> list[st
     if parser.description:
         parts += [_escape(parser.description), ""]
     rows = []
-    formatter = DefaultsFormatter("flatland-ma")
+    formatter = DefaultsFormatter(parser.prog)
     for action in parser._actions:
         if isinstance(action, (argparse._HelpAction, argparse._SubParsersAction)):
             continue
         if action.help == argparse.SUPPRESS:
             continue
-        text = formatter._get_help_string(action) % {"default": action.default}
+        text = formatter._expand_help(action)  # as --help shows it
         if isinstance(action, argparse._VersionAction):
             text = "print the version and exit"
         rows.append((_name(action), text))
