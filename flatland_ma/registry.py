@@ -76,8 +76,11 @@ def extension_failures() -> str:
 
 
 class ExtensionError(TypeError):
-    """A kind that breaks its family's protocol (e.g. a part whose ``build`` returns a
-    link it did not declare): a fault of the kind's code, named as such, not of a file."""
+    """A fault of a kind's code, named as such (its class, the scenario entry), not as the
+    file's nor as flatland_ma's: a class that does not take its spec's keys, a part whose
+    ``build`` returns a link it did not declare, a sensor whose reading is not of its
+    space's shape and dtype, code of a user's kind that raised while a scenario was
+    checked."""
 
 
 def _outside_kinds(root: type) -> list[type]:
