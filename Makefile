@@ -8,15 +8,30 @@ TORCH := torch==2.13.0
 
 .PHONY: demo test test-slow test-rllib test-clients soak bench bench-learn performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
 
-$(STAMP): pyproject.toml
+# Two steps: the core (what `make demo` needs: the package and its own dependencies,
+# about 360 MB), then torch and every extra the tests use (about 2.4 GB in all).
+CORE_STAMP := $(VENV)/.core-installed
+
+$(CORE_STAMP): pyproject.toml
+	@echo "==> [setup 1/2] creating $(VENV) ($(PYTHON) -m venv) and updating pip"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet "$(TORCH)" || \
-		$(BIN)/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
-	$(BIN)/python -m pip install --quiet -e ".[dev,train,render,clients,studio]"
+	@echo "==> [setup 2/2] installing flatland_ma and only what it needs to run (numpy, numba,"
+	@echo "    pymunk, gymnasium, pettingzoo, pydantic, pillow, pyyaml: about 360 MB, a minute here)"
+	$(BIN)/python -m pip install --disable-pip-version-check -e .
+	touch $(CORE_STAMP)
+
+$(STAMP): $(CORE_STAMP)
+	@echo "==> [tests 1/2] installing $(TORCH) (the CPU build where the index has it)"
+	$(BIN)/python -m pip install --disable-pip-version-check "$(TORCH)" || \
+		$(BIN)/python -m pip install --disable-pip-version-check "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
+	@echo "==> [tests 2/2] installing the extras the tests use: dev, train, render, clients, studio"
+	$(BIN)/python -m pip install --disable-pip-version-check -e ".[dev,train,render,clients,studio]"
 	touch $(STAMP)
 
-demo: $(STAMP)
+demo: $(CORE_STAMP)
+	@echo "==> playing fruits_poisons: 10 episodes each of a scripted and a random agent (the"
+	@echo "    first run compiles the ray kernel; about 20 s in all here)"
 	$(BIN)/flatland-ma demo
 
 # The default suite, spread over every core (pytest-xdist); `make test-slow` runs the long ones.
@@ -105,14 +120,17 @@ performance-page: $(STAMP) $(VMAS_VENV)/.installed
 reference: $(STAMP)
 	$(BIN)/python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 
-# A shipped scenario's picture (as `make docs` draws it) and the scores line of its header
-# comment (random play and its reference solver), which the library tests require.
+# A shipped scenario's picture and animation (as `make docs` draws them) and the scores line
+# of its header comment (random play and its reference solver), which the library tests
+# require.
 scenario-page: $(STAMP)
 	@test -n "$(NAME)" || (echo "usage: make scenario-page NAME=<scenario>" && exit 2)
 	$(BIN)/flatland-ma record $(NAME) --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$(NAME).png
+	$(BIN)/python docs/_ext/animations.py $(NAME)
 	$(BIN)/python -m flatland_ma.scores_header $(NAME)
 
-# Pictures of the scenarios for the README and docs/ (after the format reference).
+# Pictures of the scenarios for the README and docs/ (after the format reference), and a
+# short animation for every scenario page without a recording of its own (docs/images/animations).
 docs: reference
 	$(BIN)/flatland-ma record fruits_poisons --steps 240 --every 3 --seed 3 --out docs/images/fruits_poisons.gif
 	$(BIN)/flatland-ma record fruits_poisons_multi --steps 120 --seed 3 --out docs/images/fruits_poisons_multi.png
@@ -127,6 +145,7 @@ docs: reference
 		$(BIN)/flatland-ma record $$s --policy carrier --steps 300 --every 3 --seed 1 --out docs/images/tasks/$$s.gif || exit 1; \
 	done
 	$(BIN)/flatland-ma record scent_rooms --policy sniffer --steps 300 --every 3 --seed 1 --out docs/images/tasks/scent_rooms.gif
+	$(BIN)/python docs/_ext/animations.py
 
 # The documentation site in docs/_build/html (the docs extra in .venv): the catalogue pages
 # are written from the shipped scenario, stream and suite files and the tutorials run at

@@ -26,6 +26,7 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx_copybutton",
     "catalogue",
+    "cli_page",
 ]
 
 # Markdown (.md) is read by MyST; .md files with a kernel in their front matter are
@@ -34,7 +35,7 @@ source_suffix = {".md": "myst-nb", ".rst": "restructuredtext"}
 root_doc = "index"
 exclude_patterns = ["_build", "_ext", "lifelong/*/*.json", "README.md", "**/.ipynb_checkpoints"]
 
-myst_enable_extensions = ["colon_fence"]
+myst_enable_extensions = ["colon_fence", "attrs_inline"]
 myst_heading_anchors = 3
 
 # Every tutorial runs on every build, start to end; any exception fails the build.
@@ -54,16 +55,39 @@ autodoc_pydantic_skip = {"model_config", "model_fields", "model_computed_fields"
 
 html_theme = "furo"
 html_title = f"flatland_ma {release}"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["catalogue.css"]
 html_favicon = "images/favicon.png"
 html_show_sourcelink = False
 html_last_updated_fmt = None
 copybutton_exclude = ".linenos, .gp, .go"
 
 
-def _skip_pydantic(app, what, name, obj, skip, options):
-    return True if name in autodoc_pydantic_skip else None
+PUBLIC_CONSTANTS = {
+    "AUTORESET_MODE",
+    "GYM_AUTORESET_MODE",
+    "RENDER_MODES",
+    "KNOWN_RENDER_MODES",
+    "VECTOR_RENDER_MODES",
+    "SUITES",
+    "SHIPPED",
+    "SENSOR_KINDS",
+    "RULE_KINDS",
+    "PART_KINDS",
+    "GENERATOR_KINDS",
+    "EXTENSION_GROUP",
+}
+"""Module constants users read; the other upper-case ones (tuning constants of policies,
+limits of readers) are the modules' own and stay off the API pages."""
+
+
+def _skip_member(app, what, name, obj, skip, options):
+    if name in autodoc_pydantic_skip:
+        return True
+    if what == "module" and name.isupper() and name not in PUBLIC_CONSTANTS:
+        return True  # an internal constant (``name.isupper()``: no lower-case letter)
+    return None
 
 
 def setup(app):
-    app.connect("autodoc-skip-member", _skip_pydantic)
+    app.connect("autodoc-skip-member", _skip_member)

@@ -20,6 +20,7 @@ from flatland_ma.evaluation import command as evaluation
 from flatland_ma.lifelong import command as lifelong
 from flatland_ma.options import OptionError
 from flatland_ma.policies import convert_command
+from flatland_ma.registry import ExtensionError
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
 from flatland_ma.studio import command as studio
@@ -33,13 +34,23 @@ DESCRIPTION = (
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser of every command and option (``subcommands`` finds each command's)."""
-    parser = argparse.ArgumentParser(prog="flatland-ma", description=DESCRIPTION)
+    parser = options.CommandParser(prog="flatland-ma", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="command")
 
-    commands.add_parser("list", help="the shipped scenarios, one line each")
+    commands.add_parser(
+        "list",
+        help="the shipped scenarios, one line each",
+        description="The shipped scenarios, one line each: name, number of agents, "
+        "description and, for single-agent ones, the Gymnasium id.",
+    )
 
-    validate = commands.add_parser("validate", help="check scenario files")
+    validate = commands.add_parser(
+        "validate",
+        help="check scenario files",
+        description="Check scenario files: load each, then build it at several seeds. Each "
+        "fault names the file, line and key path; exit status 1 if any file is invalid.",
+    )
     validate.add_argument("files", nargs="+", help="scenario files or shipped names")
 
     demo = commands.add_parser("demo", help="greedy and random play on fruits_poisons")
@@ -66,8 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
         type=options.policy,
         default="greedy",
         metavar="POLICY",
-        help="greedy, planner, carrier, sniffer, random, or the path of a checkpoint file "
-        "saved by the baselines (default: greedy)",
+        help=f"one of {', '.join(options.POLICIES)}, or the path of a checkpoint file saved "
+        "by the baselines (default: greedy)",
     )
     record.add_argument(
         "--steps",
@@ -117,10 +128,10 @@ def build_parser() -> argparse.ArgumentParser:
         type=options.policy,
         default=None,
         metavar="POLICY",
-        help="the policy of the agents you do not drive: greedy, random, planner, carrier, "
-        "sniffer, idle, or a checkpoint file saved by the baselines (default: each agent's "
-        "scenario's reference solver where it suits the agent, else greedy, sniffer, planner "
-        "or random, the first that does)",
+        help="the policy of the agents you do not drive: one of "
+        f"{', '.join(options.POLICIES)}, or a checkpoint file saved by the baselines "
+        "(default: each agent's scenario's reference solver where it suits the agent, else "
+        "greedy, sniffer, planner or random, the first that does)",
     )
     play.add_argument(
         "--episodes",
@@ -147,13 +158,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="SCRIPT",
         help="keys to press instead of the keyboard, e.g. 'up*20 left*5 tab up*10' (name*N "
-        "holds a key N frames, a+b holds two, wait*N holds none); the game ends with the script",
+        "holds a key N frames, a+b holds two, wait*N holds none); the game ends with the script "
+        "(default: none: the keyboard)",
     )
     play.add_argument(
         "--screenshot",
         type=options.output_file(".png"),
         default=None,
-        help="a PNG of the window at the end",
+        help="a PNG of the window at the end (default: none)",
     )
     options.world_options(play)
 
@@ -250,6 +262,9 @@ def _validate(args) -> int:
         except ScenarioError as err:
             failures += 1
             print(f"{name}: INVALID\n{err}")
+        except ExtensionError as err:  # a user's kind broke its protocol
+            failures += 1
+            print(f"{name}: INVALID (an extension's code)\n{err}")
         except ValueError as err:
             failures += 1
             print(f"{name}: {err}")

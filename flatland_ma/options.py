@@ -185,6 +185,11 @@ CHECKPOINT_SUFFIXES = (".safetensors", ".pt")
 loading refuses with how to convert it)."""
 
 
+POLICIES = ("greedy", "planner", "carrier", "sniffer", "signaller", "follower", "random", "idle")
+"""The shipped policies' names, as ``policies.named.SHIPPED`` has them (a test keeps the
+two equal): the help lists them without importing the policies."""
+
+
 def policy(text: str) -> str:
     """A shipped policy's name or an existing checkpoint file (its contents are checked
     when it is loaded)."""
@@ -251,14 +256,16 @@ def world_options(parser: argparse.ArgumentParser) -> None:
         "--agents",
         type=positive(10**6),
         default=None,
-        help="number of agents (the scenario's n_agents; the scenario format bounds it)",
+        help="number of agents, within the scenario format's bounds (default: the "
+        "scenario's n_agents)",
     )
     parser.add_argument(
         "--sensors",
         type=names,
         default=None,
         metavar="TYPES",
-        help="each agent's sensors, by type with their defaults, e.g. camera,lidar,proprioception",
+        help="each agent's sensors by type, each with its default settings, e.g. "
+        "camera,lidar,proprioception (default: the scenario's sensors)",
     )
 
 
@@ -285,3 +292,42 @@ def world_overrides(args) -> dict:
     if args.sensors:
         overrides["agent"] = {"sensors": [{"type": t} for t in args.sensors]}
     return overrides
+
+
+class DefaultsFormatter(argparse.HelpFormatter):
+    """Help that gives every option's default: an option whose help does not state it
+    (``(default: ...)``) gets ``(default: off)`` for a flag, ``(default: none)`` when
+    unset, else its value."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if "(default:" in text or not action.option_strings or action.default == argparse.SUPPRESS:
+            return text
+        if action.nargs == 0:  # a flag (store_true and the like)
+            shown = "on" if action.default else "off"
+        elif action.default is None:
+            shown = "none"
+        else:
+            shown = str(action.default).replace("%", "%%")
+        return f"{text} (default: {shown})".strip()
+
+
+class DescribedSubParsers(argparse._SubParsersAction):
+    """Subcommands whose ``--help`` opens with their one-line help when they were given
+    no longer description."""
+
+    def add_parser(self, name: str, **kwargs):
+        if kwargs.get("description") is None and kwargs.get("help"):
+            text = str(kwargs["help"]).replace("%%", "%")  # a help is %-formatted, this not
+            kwargs["description"] = text[0].upper() + text[1:] + "."
+        return super().add_parser(name, **kwargs)
+
+
+class CommandParser(argparse.ArgumentParser):
+    """The parser of ``flatland-ma`` and of each of its commands (which inherit it): every
+    option's default in the help, every command described."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", DefaultsFormatter)
+        super().__init__(*args, **kwargs)
+        self.register("action", "parsers", DescribedSubParsers)

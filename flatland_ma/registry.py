@@ -17,6 +17,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 import warnings
+from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import ClassVar
 
@@ -57,6 +58,17 @@ def load_extensions(rescan: bool = False) -> dict[str, str]:
     return dict(_loaded)
 
 
+def how_kinds_are_added(what: str) -> str:
+    """The end of a message about an unknown kind: how a kind joins (its package
+    installed with an entry point, or registered by a call before the file is loaded)."""
+    return (
+        f". A {what} from another package is known once that package is installed in this "
+        f"environment with an entry point in the group {EXTENSION_GROUP!r}, or after "
+        "flatland_ma.register(spec, class) runs in this process (see the docs' Extending "
+        "guide)"
+    )
+
+
 def extension_failures() -> str:
     """A sentence naming the extensions that failed to load, or "" if none did."""
     failed = [f"{key} ({why})" for key, why in _loaded.items() if why]
@@ -64,8 +76,78 @@ def extension_failures() -> str:
 
 
 class ExtensionError(TypeError):
-    """A kind that breaks its family's protocol (e.g. a part whose ``build`` returns a
-    link it did not declare): a fault of the kind's code, named as such, not of a file."""
+    """A fault of a kind's code, named as such (its class, the scenario entry), not as the
+    file's nor as flatland_ma's: a class that does not take its spec's keys, a part whose
+    ``build`` returns a link it did not declare, a sensor whose reading is not of its
+    space's shape and dtype, code of a user's kind that raised while a scenario was
+    checked."""
+
+
+def _outside_kinds(root: type) -> list[type]:
+    """Every subclass of ``root`` (at any depth) defined outside this package."""
+    found, todo = [], list(root.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        todo += cls.__subclasses__()
+        if not cls.__module__.startswith("flatland_ma."):
+            found.append(cls)
+    return found
+
+
+def describe_kind(cls: type) -> str:
+    """How messages name a kind's class: ``the sensor 'compass' (my_world.compass.Compass)``."""
+    kinds = getattr(cls, "KINDS", None)
+    what = kinds.what if isinstance(kinds, Kinds) else "kind"
+    kind = getattr(cls, "kind", None)
+    name = f" {kind!r}" if kind else ""
+    return f"the {what}{name} ({cls.__module__}.{cls.__qualname__})"
+
+
+def make_kind(cls: type, where: str, values: dict, make: Callable, *args, **kwargs):
+    """``make(*args, **kwargs)``, which makes an instance of ``cls`` from a scenario
+    entry's ``values`` (``cls`` itself, or its ``from_spec``), with a fault of a class from
+    outside this package (a user's kind) reported as its own: an ``ExtensionError``
+    naming the class, the entry (``where``) and its keys."""
+    from flatland_ma.scenario.errors import ScenarioError, SpecError
+
+    try:
+        return make(*args, **kwargs)
+    except (SpecError, ScenarioError):
+        raise  # a located fault the kind found in its entry: the file's, as it says
+    except Exception as err:
+        if cls.__module__.startswith("flatland_ma."):
+            raise
+        keys = ", ".join(sorted(values)) or "none"
+        hint = ""
+        if isinstance(err, TypeError) and ("argument" in str(err) or "keyword" in str(err)):
+            hint = (
+                "; the builder passes each key of the entry's spec as a keyword argument "
+                "(from_spec's default is cls(**values)): accept every key of the spec, or "
+                "override the class's from_spec"
+            )
+        raise ExtensionError(
+            f"{where}: {describe_kind(cls)} could not be made from its entry's keys ({keys}):"
+            f" {type(err).__name__}: {err}{hint}. This is a fault of that class or its spec,"
+            " not of flatland_ma"
+        ) from err
+
+
+def fault_in_extension(err: BaseException) -> str | None:
+    """Where in a user's kind ``err`` was raised (its innermost frame in a package that
+    defines a kind registered from outside this one), as ``module.function (file, line
+    N)``; None if it was not raised in such code."""
+    packages = {cls.__module__.split(".")[0] for cls in _outside_kinds(Kinded)}
+    packages.discard("flatland_ma")
+    found = None
+    tb = err.__traceback__
+    while tb is not None:
+        module = tb.tb_frame.f_globals.get("__name__", "")
+        if module.split(".")[0] in packages:
+            code = tb.tb_frame.f_code
+            name = getattr(code, "co_qualname", code.co_name)
+            found = f"{module}.{name} ({code.co_filename}, line {tb.tb_lineno})"
+        tb = tb.tb_next
+    return found
 
 
 class Kinds(dict):
@@ -83,7 +165,8 @@ class Kinds(dict):
         if kind not in self:
             known = ", ".join(sorted(self)) or "none"
             raise KeyError(
-                f"no {self.what} of kind {kind!r}; known kinds: {known}{extension_failures()}"
+                f"no {self.what} of kind {kind!r}; known kinds: {known}"
+                f"{extension_failures() or how_kinds_are_added(self.what)}"
             )
         return super().__getitem__(kind)
 

@@ -32,3 +32,29 @@ def test_the_readme_says_how_to_install_with_pip():
     lines = [line.strip() for line in README.splitlines()]
     assert any(line.startswith('pip install -e ".[') for line in lines)
     assert any(line.startswith('pip install ".[') for line in lines)
+
+
+def test_the_license_and_the_citation_agree_with_pyproject_and_the_paper():
+    import yaml
+
+    license_text = (ROOT / "LICENSE").read_text(encoding="utf-8")
+    assert license_text.startswith("MIT License\n")
+    assert "Copyright (c) 2026 flatland_ma contributors" in license_text
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")  # tomllib: 3.11+
+    project = dict(re.findall(r'^(license|version) = "(.*)"$', pyproject, re.MULTILINE))
+    assert project["license"] == "MIT"
+    citation = yaml.safe_load((ROOT / "CITATION.cff").read_text(encoding="utf-8"))
+    assert citation["license"] == "MIT" and citation["version"] == project["version"]
+    paper = citation["preferred-citation"]
+    title = "Flatland: a Lightweight First-Person 2-D Environment for Reinforcement Learning"
+    assert paper["title"] == title
+    assert [a["family-names"] for a in paper["authors"]] == [
+        "Caselles-Dupré", "Annabi", "Hagen", "Garcia-Ortiz", "Filliat"
+    ]  # fmt: skip
+    bibtex = README.split("```bibtex\n", 1)[1].split("```", 1)[0]
+    assert f"title  = {{{title}}}" in bibtex and "Filliat, David" in bibtex
+
+
+def test_the_install_lines_say_the_package_is_installed_from_a_clone():
+    assert "not on PyPI" in README
+    assert 'pip install "flatland-ma' not in README and "pip install flatland-ma" not in README

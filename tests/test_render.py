@@ -1,6 +1,9 @@
 """Pictures: the top-down view with every field of view, and the panel of every agent's
 senses (camera strips, and every other sensor drawn from its reading's shape)."""
 
+import sys
+
+import gymnasium
 import numpy as np
 import pytest
 from gymnasium import spaces
@@ -275,6 +278,29 @@ def test_human_mode_opens_a_window_and_closes_it(monkeypatch):
     assert env.render() is None
     assert env._renderer is not None and env._renderer._window is not None
     env.close()
+    env.close()
+
+
+def test_human_mode_without_a_display_fails_clearly(monkeypatch):
+    """As ``flatland-ma play`` does: no window that nobody can see, no SDL note on stderr,
+    but an error saying why and what to do, when the env is made."""
+    from flatland_ma.render.display import NoDisplayError
+
+    for name in ("DISPLAY", "WAYLAND_DISPLAY"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "x11")
+    monkeypatch.setattr(sys, "platform", "linux")
+    with pytest.raises(NoDisplayError, match='no display here.*render_mode="rgb_array"'):
+        gymnasium.make("flatland_ma/FruitsPoisons-v0", render_mode="human")
+    with pytest.raises(NoDisplayError, match="SDL_VIDEODRIVER=dummy"):
+        flatland_ma.parallel_env("fruits_poisons", render_mode="human")
+    # A display that goes away after the env was made: the window refuses too.
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    env = flatland_ma.parallel_env("fruits_poisons", render_mode="human")
+    env.reset(seed=0)
+    monkeypatch.setenv("SDL_VIDEODRIVER", "x11")
+    with pytest.raises(NoDisplayError):
+        env.render()
     env.close()
 
 

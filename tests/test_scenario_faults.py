@@ -39,7 +39,7 @@ SWITCH_DOOR = KEY_DOOR.replace("state: locked, key: key", "switch: plate")
             "arena:\n  wall:\n    color: oragne\n",
             3,
             ("arena", "wall", "color"),
-            "unknown colour name 'oragne'",
+            "unknown colour name 'oragne' (did you mean 'orange'?)",
         ),
         (
             "arena:\n  wall:\n    color: [300, 0, 0]\n",

@@ -204,3 +204,12 @@ def test_each_file_says_what_it_is_and_how_random_and_scripted_play_score(scenar
 def test_every_scenario_has_a_picture(scenario):
     """Pictures come from ``make docs``."""
     assert (ROOT / "docs" / "images" / "scenarios" / f"{scenario}.png").is_file()
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_every_scenario_has_an_animation(scenario):
+    """Its page shows it: a recording of ``make docs`` in ``docs/images/tasks``, or the
+    short animation of ``docs/_ext/animations.py`` (``make scenario-page NAME=...``)."""
+    images = ROOT / "docs" / "images"
+    gif = f"{scenario}.gif"
+    assert (images / "tasks" / gif).is_file() or (images / "animations" / gif).is_file()

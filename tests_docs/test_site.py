@@ -78,7 +78,72 @@ def test_the_site_has_every_catalogue_page_and_the_guides():
     expected |= {"catalogue/suites/society.html", "index.html", "search.html"}
     expected |= {f"{guide}.html" for guide in ("integrations", "lifelong", "performance")}
     expected |= {"results.html", "scenarios.html", "api/index.html", "tutorials/index.html"}
+    expected |= {"concepts.html", "extending.html", "rendering.html", "studio.html", "cli.html"}
+    expected |= {"api/extending.html"}
     assert expected <= pages, sorted(expected - pages)
+
+
+def page_text(path: str) -> str:
+    return (SITE / path).read_text(encoding="utf-8")
+
+
+def test_the_api_pages_show_the_env_and_every_extension_base_but_no_internal_constant():
+    text = "".join(page_text(p) for p in PAGES if p.startswith("api/"))
+    shown = [
+        "flatland_ma.envs.parallel.FlatlandParallelEnv",
+        "flatland_ma.extensions.register",
+        "flatland_ma.build.feasibility.check_scenario",
+        "flatland_ma.sensors.sensor.Sensor",
+        "flatland_ma.tasks.rule.Rule",
+        "flatland_ma.tasks.rule.Step",
+        "flatland_ma.agents.parts.Part",
+        "flatland_ma.build.generators.Generator",
+        "flatland_ma.build.layout.Layout",
+        "flatland_ma.build.layout.WallPiece",
+        "flatland_ma.world.contacts.ContactLog",
+    ]
+    assert [name for name in shown if f'id="{name}"' not in text] == []
+    hidden = ["flatland_ma.policies.greedy.PATIENCE", "flatland_ma.envs.shards.STARTUP_SECONDS"]
+    assert [name for name in hidden if f'id="{name}"' in text] == []
+
+
+def test_the_command_line_page_has_every_command_and_option():
+    from flatland_ma.cli import build_parser, subcommands
+
+    text = page_text("cli.html")
+    for name, parser in subcommands(build_parser()).items():
+        assert f'id="flatland-ma-{name}"' in text, name
+        for action in parser._actions:
+            for flag in action.option_strings:
+                assert flag in text, (name, flag)
+    assert text.count("(default:") >= 40
+
+
+def test_a_scenario_page_gives_sensor_values_camera_channels_state_and_colour_names():
+    text = page_text("catalogue/scenarios/fruits_poisons.html")
+    assert "rays=64, fov=120, range=300" in text and "Global state" in text
+    assert "depth: <code" in text and "red, green, blue of the first thing" in text
+    assert "orange" in text and "(1.0, 0.6" not in text
+    channel = page_text("catalogue/scenarios/signal_rooms.html")
+    assert "tokens=1, vocabulary=2" in channel
+
+
+@pytest.mark.parametrize("name", flatland_ma.list_scenarios())
+def test_every_scenario_page_shows_an_animation(name):
+    assert ".gif" in page_text(f"catalogue/scenarios/{name}.html")
+
+
+def test_the_animations_stay_small():
+    animations = list((ROOT / "docs" / "images" / "animations").glob("*.gif"))
+    assert sum(path.stat().st_size for path in animations) < 4_000_000
+
+
+def test_the_catalogue_groups_scenarios_in_a_gallery():
+    text = page_text("catalogue/index.html")
+    for title in ("Foraging and navigation", "Bodies with parts", "Roles, teams", "Other senses"):
+        assert title in text
+    assert text.count('class="thumb"') == len(flatland_ma.list_scenarios())
+    assert "flatland_ma/FruitsPoisons-v0" in text and "Discrete(3)" in text
 
 
 TUTORIALS = [p for p in PAGES if p.startswith("tutorials/") and p != "tutorials/index.html"]

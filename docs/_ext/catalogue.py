@@ -27,7 +27,7 @@ from scenario_page import benchmark_section, scenario_page
 
 from flatland_ma.evaluation.suite import list_suites, load_suite, suite_dir
 from flatland_ma.lifelong.streams import list_streams, load_stream
-from flatland_ma.registration import stream_gym_id
+from flatland_ma.registration import gym_id, stream_gym_id
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, stream_dir
 
 FOLDER = "catalogue"
@@ -45,7 +45,7 @@ def write_catalogue(docs: Path) -> list[Path]:
         pages[root / "streams" / f"{name}.md"] = stream_page(name, root / "streams", docs)
     for name in list_suites():
         pages[root / "suites" / f"{name}.md"] = suite_page(name, root / "suites")
-    pages[root / "index.md"] = index_page(scenarios, list_streams(), list_suites())
+    pages[root / "index.md"] = index_page(scenarios, list_streams(), list_suites(), images)
     for path, text in pages.items():
         write_if_changed(path, text)
     for stale in root.rglob("*.md"):
@@ -54,11 +54,98 @@ def write_catalogue(docs: Path) -> list[Path]:
     return sorted(pages)
 
 
-def index_page(scenarios: list[str], streams: list[str], suites: list[str]) -> str:
-    rows = []
+KIND_TITLES = {
+    "forage": "Foraging and navigation",
+    "parts": "Bodies with parts: pushing, grasping, carrying",
+    "roles": "Roles, teams and talk",
+    "senses": "Other senses",
+}
+"""The catalogue's groups of scenarios, in the order shown."""
+THUMBNAIL_WIDTH = 120
+"""Pixels across a scenario's picture in the catalogue's gallery."""
+
+
+def kind_of(spec) -> str:
+    """Which group of the gallery a scenario belongs to, from what its agents have:
+    a channel or bodies of their own per team (roles), senses beyond a camera (senses),
+    heads, arms or parts (parts), else foraging and navigation."""
+    if spec.channel is not None or any(t.agent is not None for t in spec.teams or ()):
+        return "roles"
+    agents = [spec.agent_of(i) for i in range(spec.n_agents)]
+    types = {s.type for agent in agents for s in agent.sensor_specs}
+    if types != {"camera"}:
+        return "senses"
+    if any(a.head is not None or a.arms or a.parts for a in agents):
+        return "parts"
+    if any(o.movable for o in spec.obstacles):
+        return "parts"
+    return "forage"
+
+
+def _observation(space) -> str:
+    if hasattr(space, "spaces") and isinstance(space.spaces, dict):
+        return ", ".join(f"{k} {tuple(s.shape)}" for k, s in space.spaces.items())
+    return str(tuple(space.shape))
+
+
+def _action(space) -> str:
+    if hasattr(space, "n"):
+        return f"Discrete({int(space.n)})"
+    if hasattr(space, "nvec"):
+        return f"MultiDiscrete({[int(n) for n in space.nvec]})"
+    return f"Box{tuple(space.shape)}"
+
+
+def gallery(scenarios: list[str], images: Path) -> list[str]:
+    """The scenarios grouped by kind, each a row with its picture, agents, observation,
+    action and Gymnasium id."""
+    import flatland_ma
+
+    groups: dict[str, list[list[object]]] = {kind: [] for kind in KIND_TITLES}
     for name in scenarios:
         spec = load_scenario(name)
-        rows.append([f"[{name}](scenarios/{name}.md)", spec.n_agents, spec.description])
+        env = flatland_ma.parallel_env(name)
+        first = env.possible_agents[0]
+        observation = _observation(env.observation_space(first))
+        action = _action(env.action_space(first))
+        mixed = any(
+            str(env.observation_space(a)) != str(env.observation_space(first))
+            or str(env.action_space(a)) != str(env.action_space(first))
+            for a in env.possible_agents
+        )
+        env.close()
+        if mixed:
+            observation += " (first agent's; others differ)"
+        thumb = images / "scenarios" / f"{name}.png"
+        picture_cell = (
+            f"![{name}](../images/scenarios/{name}.png){{.thumb w={THUMBNAIL_WIDTH}px}}"
+            if thumb.is_file()
+            else ""
+        )
+        ident = gym_id(name)
+        shown_id = code(ident) if ident in flatland_ma.GYM_IDS else "-"
+        groups[kind_of(spec)].append(
+            [
+                picture_cell,
+                f"[{name}](scenarios/{name}.md): {spec.description}",
+                spec.n_agents,
+                code(observation),
+                code(action),
+                shown_id,
+            ]
+        )
+    out = []
+    headers = ["", "Scenario", "Agents", "Observation", "Action", "Gymnasium id"]
+    for kind, rows in groups.items():
+        if rows:
+            out += [f"### {KIND_TITLES[kind]}", "", table(headers, rows), ""]
+    return out
+
+
+def index_page(
+    scenarios: list[str], streams: list[str], suites: list[str], images: Path | None = None
+) -> str:
+    shown = gallery(scenarios, images) if images is not None else []
     stream_rows = [[f"[{n}](streams/{n}.md)", load_stream(n).spec.description] for n in streams]
     suite_rows = [[f"[{n}](suites/{n}.md)", load_suite(n).description] for n in suites]
     toctree = ["```{toctree}", ":hidden:", ""]
@@ -73,8 +160,11 @@ def index_page(scenarios: list[str], streams: list[str], suites: list[str]) -> s
             "",
             "## Scenarios",
             "",
-            table(["Scenario", "Agents", "Description"], rows),
+            "Grouped by what their agents have and do. Observation and action: the first "
+            "agent's spaces (a `Dict` by sensor name when it has several sensors); "
+            "Gymnasium id: for single-agent scenarios.",
             "",
+            *shown,
             "## Task streams",
             "",
             "Lives through several tasks, for lifelong learning ([the guide](../lifelong.md)).",

@@ -21,6 +21,7 @@ from pages import (
 
 import flatland_ma
 from flatland_ma.registration import gym_id
+from flatland_ma.scenario.colors import color_text
 from flatland_ma.scenario.loader import load_scenario, scenario_path
 from flatland_ma.scenario.schema import ScenarioSpec
 
@@ -38,13 +39,14 @@ def scenario_page(name: str, page_dir: Path, images: Path) -> str:
     env = flatland_ma.parallel_env(name)
     try:
         agents = _agents(spec, env)
+        state = env.state_space
     finally:
         env.close()
     prose, scores = split_scores(body_of(header_comment(path)))
     parts = [f"# {name}", "", f"*{spec.description}*", ""]
     parts += _pictures(name, page_dir, images)
     parts += [paragraphs(prose), ""]
-    parts += _summary(name, spec, env_agents=sum(len(g["names"]) for g in agents))
+    parts += _summary(name, spec, sum(len(g["names"]) for g in agents), state)
     parts += ["## Agents", "", _agents_table(agents), ""]
     parts += _observations(agents)
     parts += _rules(spec)
@@ -104,6 +106,8 @@ def _pictures(name: str, page_dir: Path, images: Path) -> list[str]:
     out = []
     still = images / "scenarios" / f"{name}.png"
     moving = images / "tasks" / f"{name}.gif"
+    if not moving.is_file():  # the short animation of make docs (docs/_ext/animations.py)
+        moving = images / "animations" / f"{name}.gif"
     if moving.is_file():
         out += picture(moving, page_dir, f"{name}: an episode of its scripted solver")
     if still.is_file():
@@ -112,7 +116,7 @@ def _pictures(name: str, page_dir: Path, images: Path) -> list[str]:
     return out
 
 
-def _summary(name: str, spec: ScenarioSpec, env_agents: int) -> list[str]:
+def _summary(name: str, spec: ScenarioSpec, env_agents: int, state) -> list[str]:
     rows = [
         ["Import", code(f'flatland_ma.parallel_env("{name}")')],
         ["AEC", code(f'flatland_ma.env("{name}")')],
@@ -127,7 +131,14 @@ def _summary(name: str, spec: ScenarioSpec, env_agents: int) -> list[str]:
     if spec.teams:
         rows.append(["Teams", ", ".join(f"{t.name} ({t.size})" for t in spec.teams)])
     if spec.channel is not None:
-        rows.append(["Channel", compact(spec.channel)])
+        rows.append(["Channel", settings(spec.channel)])
+    rows.append(
+        [
+            "Global state",
+            f"{code('env.state()')}: {state.shape[0]} float32 numbers "
+            f"({code('env.state_labels')} names each; see [the concepts](../../concepts.md))",
+        ]
+    )
     return ["## At a glance", "", "| | |\n|---|---|", *[f"| {a} | {b} |" for a, b in rows], ""]
 
 
@@ -188,27 +199,83 @@ def _agents_table(groups: list[dict]) -> str:
 def _observations(groups: list[dict]) -> list[str]:
     out = ["## Observations", ""]
     out += [
-        "Read from `env.observation_space(agent)` of the built env; a sensor's settings "
-        "are those its file sets (the rest are the defaults of the scenario format).",
+        "Read from `env.observation_space(agent)` of the built env; each sensor's settings "
+        "with their values, whether the file sets them or leaves the scenario format's "
+        "defaults.",
         "",
     ]
     for g in groups:
         if len(groups) > 1:
             out += [f"### {_label(g)}", ""]
         out += [table(["Entry", "Shape", "Dtype", "Values"], space_rows(g["observation"])), ""]
-        rows = [
-            [code(s.name or s.type), s.type, compact(s, drop=("type", "name"))]
-            for s in g["body"].sensor_specs
-        ]
-        out += [table(["Sensor", "Type", "Settings"], rows), ""]
+        rows = [[code(s.name or s.type), s.type, settings(s)] for s in g["body"].sensor_specs]
+        out += [table(["Sensor", "Type", "Settings (every value, defaults included)"], rows), ""]
+        for s in g["body"].sensor_specs:
+            if s.type == "camera":
+                out += _camera_channels(s)
     return out
+
+
+def settings(spec) -> str:
+    """Every setting of a spec with its value, defaults included (``key=value``; colours
+    by name; unset optional ones left out)."""
+    data = spec.model_dump(mode="json", exclude_none=True)
+    pairs = [f"{k}={_value(v)}" for k, v in data.items() if k not in ("type", "name")]
+    return ", ".join(pairs) or "none"
+
+
+def _value(value) -> str:
+    if isinstance(value, float) and value.is_integer():
+        return str(int(value))
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k}: {_value(v)}" for k, v in value.items()) + "}"
+    if isinstance(value, list):
+        return "[" + ", ".join(_value(v) for v in value) + "]"
+    return str(value)
+
+
+KINDS = "0 nothing, 1 wall, 2 door, 3 obstacle, 4 item, 5 agent"
+"""The semantic channel's kinds, as ``CameraSpec.channels`` documents them."""
+
+
+def _camera_channels(camera) -> list[str]:
+    """What each column of a camera's observation means, in order."""
+    name = code(camera.name or camera.type)
+    fade = {
+        "linear": f"1 - d / {camera.range:g}",
+        "exponential": f"exp(-d / {camera.decay or camera.range / 3:g})",
+        "none": "1",
+    }[camera.falloff]
+    rows, k = [], 0
+    for channel in camera.channels:
+        if channel == "rgb":
+            rows.append(
+                [f"{k}, {k + 1}, {k + 2}", "red, green, blue of the first thing the ray hits, "
+                 f"times its intensity {code(fade)} for a hit at distance d; black for nothing"]
+            )  # fmt: skip
+            k += 3
+        elif channel == "depth":
+            rows.append([str(k), f"depth: {code(f'd / {camera.range:g}')}; 1 for nothing in range"])
+            k += 1
+        elif camera.semantic == "id":
+            rows.append([str(k), f"the kind of thing hit, as its id ({KINDS})"])
+            k += 1
+        else:
+            rows.append([f"{k} to {k + 5}", f"the kind of thing hit, one-hot ({KINDS})"])
+            k += 6
+    intro = (
+        f"The camera {name} gives one row per ray ({camera.rays} rays over {camera.fov:g} "
+        f"degrees, ray 0 the leftmost) and {k} channels per ray:"
+    )
+    return [intro, "", table(["Channel", "Meaning"], rows), ""]
 
 
 def _rules(spec: ScenarioSpec) -> list[str]:
     out = ["## Rules and rewards", ""]
     if spec.items:
         rows = [
-            [i.name, i.color, f"{i.reward:g}", i.count, i.respawn, _flags(i)] for i in spec.items
+            [i.name, color_text(i.color), f"{i.reward:g}", i.count, i.respawn, _flags(i)]
+            for i in spec.items
         ]
         headers = ["Items", "Colour", "Reward", "Count", "Respawn", "Also"]
         out += [table(headers, rows), ""]

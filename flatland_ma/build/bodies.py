@@ -13,7 +13,7 @@ import math
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Link, Part, agent_filter
-from flatland_ma.registry import ExtensionError
+from flatland_ma.registry import ExtensionError, describe_kind, make_kind
 from flatland_ma.scenario.spec_agent import AgentSpec, ChannelSpec
 from flatland_ma.sensors.hearing import Hearing
 from flatland_ma.sensors.noise import Noise
@@ -56,7 +56,13 @@ def make_parts(agent: AgentSpec) -> list[Part]:
         parts.append(Grasper(f"{label}_grip", prefix, where, tip, **grasper.model_dump()))
     for k, entry in enumerate(agent.parts):
         values = entry.model_dump(exclude={"type"})
-        part = PART_KINDS[entry.type].from_spec(values, agent)
+        kind = PART_KINDS[entry.type]
+        where = f"an agent's parts[{k}]"
+        part = make_kind(kind, where, values, kind.from_spec, values, agent)
+        if not isinstance(part, Part):
+            raise ExtensionError(
+                f"{where}: {describe_kind(kind)}.from_spec returned {part!r:.80}, not a Part"
+            )
         part.label = part.label or f"parts[{k}]"
         parts.append(part)
     for kind in PART_KINDS.every():  # any other kind the agent declares
@@ -86,10 +92,16 @@ def make_sensors(
     of ``n_agents``), its hearing last."""
     sensors: list[Sensor] = []
     parts = make_parts(agent)
-    for spec in agent.sensor_specs:
+    for k, spec in enumerate(agent.sensor_specs):
         values = spec.model_dump(exclude={"type", "noise"})
         values["name"] = spec.name or spec.type
-        sensor = SENSOR_KINDS[spec.type].from_spec(values, parts)
+        kind = SENSOR_KINDS[spec.type]
+        where = f"an agent's sensors[{k}]"
+        sensor = make_kind(kind, where, values, kind.from_spec, values, parts)
+        if not isinstance(sensor, Sensor):
+            raise ExtensionError(
+                f"{where}: {describe_kind(kind)}.from_spec returned {sensor!r:.80}, not a Sensor"
+            )
         if spec.noise is not None and spec.noise.active:
             sensor.noise = Noise(**spec.noise.model_dump())
         sensors.append(sensor)

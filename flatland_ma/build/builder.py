@@ -24,11 +24,12 @@ from flatland_ma.build.generators import generator_for
 from flatland_ma.build.ground import Ground
 from flatland_ma.build.layout import explicit_layout
 from flatland_ma.build.reach import reachable_region
+from flatland_ma.registry import make_kind
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.sensors.suite import Sensors
-from flatland_ma.tasks.rule import RULE_KINDS, Spawn, TaskContext
+from flatland_ma.tasks.rule import RULE_KINDS, Rule, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
 from flatland_ma.world.channel import Channel
 from flatland_ma.world.entities import Door, Entity
@@ -175,10 +176,17 @@ def populate(
         spawns=[Spawn(s.area, s.heading) for s in map(spec.spawn_of, range(spec.n_agents))],
         records=new_records(spec.n_agents),
     )
-    extra = [RULE_KINDS[r.rule](**r.model_dump(exclude={"rule"})) for r in spec.rules]
+    extra = [_make_rule(k, r) for k, r in enumerate(spec.rules)]
     episode = spec.episode
     task = Task(ctx, extra, episode.shared_end, episode.end_when_eaten)
     return Episode(world, bodies, suite, task, site.grid, placer, hands, site.doors, eyes)
+
+
+def _make_rule(k: int, rule) -> Rule:
+    """The rule of ``rules[k]``, from its spec's keys but ``rule``."""
+    kind = RULE_KINDS[rule.rule]
+    values = rule.model_dump(exclude={"rule"})
+    return make_kind(kind, f"rules[{k}]", values, kind, **values)
 
 
 def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list[AgentBody]:

@@ -15,7 +15,7 @@ import numpy as np
 from flatland_ma.build.bodies import fastest_parts, footprint, make_parts, make_sensors
 from flatland_ma.build.builder import lay_ground, populate
 from flatland_ma.build.capacity import check_capacity
-from flatland_ma.registry import ExtensionError
+from flatland_ma.registry import ExtensionError, fault_in_extension
 from flatland_ma.scenario.checks import wall_thicknesses
 from flatland_ma.scenario.errors import Problem, ScenarioError, SpecError
 from flatland_ma.scenario.loader import load_scenario
@@ -45,6 +45,12 @@ def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> Sce
     except (ScenarioError, ExtensionError):
         raise
     except Exception as err:
+        where = fault_in_extension(err)
+        if where is not None:  # a user's kind: its code's fault, not the file's or ours
+            raise ExtensionError(
+                f"an extension's code failed while checking {spec._origin[0]}: "
+                f"{type(err).__name__}: {err}, raised in {where}"
+            ) from err
         source = spec._origin[0]
         message = f"internal error while checking ({type(err).__name__}: {err}); please report it"
         raise ScenarioError([Problem(source, None, (), message)]) from err

@@ -16,7 +16,7 @@ import numpy as np
 from flatland_ma.build.ground import Ground
 from flatland_ma.build.layout import DoorPiece, Layout, axis_piece, axis_point, merge, style
 from flatland_ma.build.scatter import scatter_obstacles
-from flatland_ma.registry import Kinded, Kinds
+from flatland_ma.registry import Kinded, Kinds, make_kind
 from flatland_ma.scenario.budget import maze_size
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import DoorSpec, ScenarioSpec
@@ -28,7 +28,10 @@ GENERATOR_KINDS = Kinds("flatland_ma.build", "generator")
 
 class Generator(Kinded, ABC):
     """Base of every generator: ``spec`` is its entry in the file, ``scenario`` the whole
-    file, ``path`` the entry's key path (for messages)."""
+    file, ``path`` the entry's key path (for messages). Required: ``generate``. A
+    generator of your own subclasses this with a spec subclassing
+    ``scenario.spec_world.GeneratorBaseSpec``, joined by ``flatland_ma.register``; the
+    extending guide shows walls and obstacles drawn from one."""
 
     KINDS = GENERATOR_KINDS
 
@@ -42,7 +45,10 @@ class Generator(Kinded, ABC):
 
 def generator_for(spec, scenario: ScenarioSpec, index: int) -> Generator:
     """The generator of ``scenario.layout.generators[index]``."""
-    return GENERATOR_KINDS[spec.generator](spec, scenario, ("layout", "generators", index))
+    kind = GENERATOR_KINDS[spec.generator]
+    path = ("layout", "generators", index)
+    where = f"layout.generators[{index}]"
+    return make_kind(kind, where, {}, kind, spec, scenario, path)
 
 
 class GridRooms(Generator, kind="grid_rooms"):

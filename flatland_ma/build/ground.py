@@ -25,6 +25,11 @@ from flatland_ma.world.world import World
 
 
 class Ground:
+    """One episode's layout under construction, as generators see it (see the module's
+    docstring): ``add`` wall and door pieces; ``world`` stands the world up (walls so
+    far, the file's obstacles) for generators that place things in it
+    (``place_clear``); ``grid`` and ``reach`` for those that keep the arena connected."""
+
     def __init__(self, spec: ScenarioSpec, budget: ResetBudget | None = None):
         self.spec = spec
         self.budget = budget if budget is not None else ResetBudget()
@@ -49,6 +54,7 @@ class Ground:
 
     @property
     def world(self) -> World:
+        """The physical world, built from the pieces added so far on first use."""
         if self._world is None:
             self._materialise()
         return self._world  # type: ignore[return-value]
@@ -62,6 +68,7 @@ class Ground:
 
     @property
     def grid(self) -> NavGrid:
+        """The occupancy grid of the standing world (free for the slimmest agent)."""
         if self._grid is None:
             self._materialise()
         return self._grid  # type: ignore[return-value]

@@ -22,7 +22,10 @@ RGB = tuple[float, float, float]
 
 @dataclass(frozen=True)
 class WallPiece:
-    """A solid box whose centre line runs from ``start`` to ``end`` (its full extent)."""
+    """A solid box whose centre line runs from ``start`` to ``end`` (its full extent):
+    ``WallPiece(start, end, thickness, color, texture, path)``, points in arena units,
+    ``color`` an (r, g, b) triple of 0..1 floats, ``texture`` None (plain) or a
+    ``TextureSpec``. A generator passes its own ``path`` (``Generator.path``)."""
 
     start: Point
     end: Point
@@ -43,6 +46,10 @@ class WallPiece:
 
 @dataclass(frozen=True)
 class DoorPiece:
+    """A door across a gap, from ``start`` to ``end`` (arena units), ``thickness`` wide,
+    of the kind its ``spec`` (``scenario.schema.DoorSpec``) says; ``path``: the key path
+    of the scenario entry it comes from."""
+
     start: Point
     """The hinge end, for hinged doors."""
     end: Point
@@ -64,6 +71,8 @@ class Carve:
 
 @dataclass
 class Layout:
+    """Wall and door pieces for a ``Ground`` (``ground.add(Layout(walls, doors))``)."""
+
     walls: list[WallPiece]
     doors: list[DoorPiece]
 

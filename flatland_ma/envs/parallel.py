@@ -44,12 +44,31 @@ from flatland_ma.build.census import state_entities, world_state
 from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.envs.flatten import FlatLayout, FlatPart
 from flatland_ma.envs.render_modes import KNOWN_RENDER_MODES, RENDER_MODES
+from flatland_ma.render.display import missing_display, no_window
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.suite import observation_space
 
 
 class FlatlandParallelEnv(ParallelEnv):
+    """A scenario as a PettingZoo parallel environment (see the module's docstring).
+
+    ``scenario``: a shipped scenario's name (``flatland_ma.list_scenarios()``), the path
+    of a scenario file, or a ``ScenarioSpec`` already loaded. ``render_mode``: None,
+    ``"rgb_array"`` (``render()`` returns the map and every agent's senses as one uint8
+    image) or ``"human"`` (a window; needs pygame and a display). ``max_cycles``: the
+    episode's length in steps (the scenario's ``episode.max_steps`` by default).
+    ``flatten``: one float32 vector per agent. Other keywords override the scenario's
+    top-level keys (``n_agents=4``, ``agent={"sensors": [...]}``), validated as the file
+    is; an unknown one raises ``TypeError``. The scenario is checked (it must build at
+    several seeds) before the env exists.
+
+    After ``reset(seed=...)``: ``agents`` (the live ones), ``observation_space(agent)``
+    and ``action_space(agent)`` (the same object each call), ``action_names(agent)``,
+    ``state()`` and ``state_space`` for centralised critics, ``spec`` (the scenario),
+    ``episode`` (the world, bodies and sensors, for scripted policies and tests).
+    """
+
     metadata = {
         "name": "flatland_ma_v1",
         "render_modes": RENDER_MODES,
@@ -65,6 +84,8 @@ class FlatlandParallelEnv(ParallelEnv):
         flatten: bool = False,
         **overrides,
     ):
+        if render_mode == "human":
+            no_window(missing_display())
         if max_cycles is not None:
             overrides = with_episode_length(overrides, max_cycles)
         if isinstance(scenario, ScenarioSpec):
@@ -129,9 +150,14 @@ class FlatlandParallelEnv(ParallelEnv):
     # -- spaces -------------------------------------------------------------------------
 
     def observation_space(self, agent: str) -> gymnasium.Space:
+        """The agent's observation space: its one sensor's, or a ``Dict`` by sensor name
+        (a ``Box`` of one vector with ``flatten=True``); the same object every call."""
         return self.observation_spaces[agent]
 
     def action_space(self, agent: str) -> gymnasium.Space:
+        """The agent's action space, ``Discrete`` or ``Box`` as its body acts
+        (``action_names`` says what each action or entry means); the same object every
+        call."""
         return self.action_spaces[agent]
 
     def action_names(self, agent: str | None = None) -> tuple[str, ...]:
@@ -202,6 +228,8 @@ class FlatlandParallelEnv(ParallelEnv):
         self._in_use.release()
 
     def reset(self, seed: int | None = None, options: dict | None = None):
+        """Start an episode: ``(observations, infos)``, one entry per agent. The same
+        ``seed`` gives the same layout, spawns and draws; None draws a fresh seed."""
         self.enter()
         try:
             return self._reset(seed)
@@ -209,6 +237,10 @@ class FlatlandParallelEnv(ParallelEnv):
             self.leave()
 
     def step(self, actions: Mapping):
+        """Advance one step with one action per live agent: ``(observations, rewards,
+        terminations, truncations, infos)``, each a dict by agent (the agents that were
+        live). Actions for finished agents are ignored; a bad one raises ``ValueError``
+        naming the agent and its space, and changes nothing."""
         self.enter()
         try:
             return self._step(actions)
@@ -356,6 +388,9 @@ class FlatlandParallelEnv(ParallelEnv):
     # -- rendering ----------------------------------------------------------------------
 
     def render(self):
+        """With ``render_mode="rgb_array"``, the map with every sensor's field of view
+        and each agent's senses beneath, as a uint8 ``H x W x 3`` array; with
+        ``"human"``, the same in a window (None is returned). Rendering only reads."""
         if self.render_mode is None:
             gymnasium.logger.warn("render() called without a render_mode; nothing to draw")
             return None
@@ -376,6 +411,7 @@ class FlatlandParallelEnv(ParallelEnv):
         return None
 
     def close(self) -> None:
+        """Close the window, if one is open; safe to call twice."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

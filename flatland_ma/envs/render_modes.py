@@ -8,7 +8,7 @@ import importlib.util
 
 def available_render_modes() -> list[str]:
     """The render modes this install can do: ``rgb_array`` always, ``human`` when pygame
-    can be imported (``pip install "flatland-ma[render]"``)."""
+    can be imported (the ``render`` extra, or ``pip install pygame``)."""
     try:
         pygame = importlib.util.find_spec("pygame")
     except (ImportError, ValueError):  # pygame set to None in sys.modules, or half-installed

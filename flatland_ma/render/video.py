@@ -30,7 +30,8 @@ def check_writable(path: str | Path) -> None:
         )
     if suffix == ".mp4" and importlib.util.find_spec("av") is None:
         raise ValueError(
-            f"cannot write {str(path)!r}: MP4 needs PyAV (pip install 'flatland-ma[render]'); "
+            f"cannot write {str(path)!r}: MP4 needs PyAV (pip install av; or, in "
+            "a clone of flatland_ma, its render extra: pip install -e '.[render]'); "
             "a .gif or .png needs nothing more"
         )
 

@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from flatland_ma.render.display import missing_display, no_window
+
 try:
     import pygame
 except ImportError as err:  # pragma: no cover - depends on the install
     raise ImportError(
-        'render_mode="human" and play need pygame: pip install "flatland-ma[render]"'
+        'render_mode="human" and play need pygame: pip install pygame (or, in a clone of '
+        "flatland_ma, its render extra: pip install -e '.[render]')"
     ) from err
 
 
@@ -17,6 +20,7 @@ class Window:
     """One pygame window of a fixed size showing RGB frames."""
 
     def __init__(self, size: tuple[int, int], title: str):
+        no_window(missing_display())  # the display may have gone since the env was made
         pygame.display.init()
         self.screen = pygame.display.set_mode(size)
         pygame.display.set_caption(title)

@@ -6,6 +6,7 @@ defaults in the JSON schema) as its name, or else as ``"#rrggbb"``.
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Sequence
 from typing import Any, TypeGuard
 
@@ -54,7 +55,9 @@ def parse_color(value: object) -> RGB:
         if text in NAMED_COLORS_255:
             return _scaled(NAMED_COLORS_255[text])
         known = ", ".join(sorted(NAMED_COLORS_255))
-        raise ValueError(f"unknown colour name {value!r}; known names: {known}")
+        close = difflib.get_close_matches(text, list(NAMED_COLORS_255), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"unknown colour name {value!r}{hint}; known names: {known}")
     if isinstance(value, (list, tuple)):
         if len(value) != 3 or not all(
             isinstance(c, int) and not isinstance(c, bool) for c in value

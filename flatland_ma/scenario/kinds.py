@@ -19,7 +19,7 @@ from typing import Any
 from pydantic import BaseModel, GetCoreSchemaHandler, GetJsonSchemaHandler, ValidationError
 from pydantic_core import ErrorDetails, core_schema
 
-from flatland_ma.registry import extension_failures, load_extensions
+from flatland_ma.registry import extension_failures, how_kinds_are_added, load_extensions
 
 
 class Nested(ValueError):
@@ -89,7 +89,8 @@ class SpecKinds:
             hint = difflib.get_close_matches(str(name), self.names(), n=1)
             maybe = f" (did you mean {hint[0]!r}?)" if hint else ""
             raise ValueError(
-                f"unknown {self.what} {name!r}{maybe}; {self._choices()}{extension_failures()}",
+                f"unknown {self.what} {name!r}{maybe}; {self._choices()}"
+                f"{extension_failures() or how_kinds_are_added(self.what)}",
             )
         try:
             return spec.model_validate(value)

@@ -8,11 +8,13 @@ kernel call, and lets each sensor read its observation from the results.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numba as nb
 import numpy as np
 from gymnasium import spaces
 
+from flatland_ma.registry import ExtensionError
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.geometry import Geometry
 from flatland_ma.sensors.lists import filled, put
@@ -105,6 +107,9 @@ class Sensors:
         self.readings: list[np.ndarray | None] = [None] * len(cameras)
         """The reading of each sensor last handed out (noise included), for pictures:
         the renderer draws these and never reads a sensor itself (no noise is drawn)."""
+        self._unchecked = [True] * len(cameras)
+        """Whether sensor k's reading is still to be checked against its space (its first
+        of the episode is: a sensor's read is the same code every step)."""
         for k, sensor in enumerate(cameras):
             sensor.attach(self, k)
 
@@ -140,10 +145,36 @@ class Sensors:
     def _reading(self, k: int) -> np.ndarray:
         sensor = self.cameras[k]
         reading = sensor.read(self, k)
+        if self._unchecked[k]:
+            check_reading(sensor, reading, self.carriers[k].owner)
+            self._unchecked[k] = False
         if sensor.noise is not None:
             reading = sensor.noise.apply(reading, sensor.space, self.rng)  # type: ignore[arg-type]
         self.readings[k] = reading
         return reading
+
+
+def check_reading(sensor: Sensor, reading: Any, agent: int) -> None:
+    """Raise ``ExtensionError`` naming the sensor if ``reading`` (what its ``read``
+    returned for agent ``agent``) is not an array of its space's shape and dtype: the
+    envs copy readings into buffers of the space's shape, where a wrong one would fail
+    far from the sensor, or pass unseen."""
+    space = sensor.space
+    shape, dtype = getattr(space, "shape", None), getattr(space, "dtype", None)
+    if isinstance(reading, np.ndarray) and reading.shape == shape and reading.dtype == dtype:
+        return
+    cls = type(sensor)
+    got = (
+        f"an array of shape {reading.shape} and dtype {reading.dtype}"
+        if isinstance(reading, np.ndarray)
+        else f"a {type(reading).__name__}"
+    )
+    raise ExtensionError(
+        f"sensor {sensor.name!r} (kind {getattr(cls, 'kind', '?')!r}, class "
+        f"{cls.__module__}.{cls.__qualname__}) of agent {agent}: its read returned {got}, "
+        f"but its space is {space}; read must return a fresh numpy array of the space's "
+        f"shape {shape} and dtype {dtype}"
+    )
 
 
 @nb.njit(parallel=True, cache=True)

@@ -15,6 +15,10 @@ from flatland_ma.world.entities import Door, Entity, Item, Obstacle, Zone
 
 @dataclass
 class ContactLog:
+    """What happened in the last step, filled by the world as it steps and cleared at
+    the next; rules read it (``Step.log``), nothing but the world writes it. An agent in
+    it is its base (an ``AgentBody``; its index is ``owner``)."""
+
     items: list[tuple[Entity, Item]] = field(default_factory=list)
     """(agent base, item) for each item an agent (or its grasper) began touching."""
     doors: list[tuple[Entity, Door]] = field(default_factory=list)
