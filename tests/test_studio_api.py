@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-pytest.importorskip("starlette", reason="the studio extra: pip install 'flatland-ma[studio]'")
+pytest.importorskip("starlette", reason="the studio extra: pip install -e '.[studio]' in a clone")
 
 from PIL import Image  # noqa: E402
 from starlette.testclient import TestClient  # noqa: E402

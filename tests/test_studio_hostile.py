@@ -16,7 +16,7 @@ import urllib.request
 
 import pytest
 
-pytest.importorskip("starlette", reason="the studio extra: pip install 'flatland-ma[studio]'")
+pytest.importorskip("starlette", reason="the studio extra: pip install -e '.[studio]' in a clone")
 
 from starlette.testclient import TestClient  # noqa: E402
 from starlette.websockets import WebSocketDisconnect  # noqa: E402

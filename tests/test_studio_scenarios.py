@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-pytest.importorskip("starlette", reason="the studio extra: pip install 'flatland-ma[studio]'")
+pytest.importorskip("starlette", reason="the studio extra: pip install -e '.[studio]' in a clone")
 
 from starlette.testclient import TestClient  # noqa: E402
 

@@ -127,7 +127,8 @@ def _needs_torch(path: str | Path) -> None:
     except ImportError as err:
         raise ValueError(
             f"{path}: playing a checkpoint needs torch and safetensors "
-            "(pip install 'flatland-ma[train]')"
+            "(pip install torch safetensors; or, in a clone of flatland_ma, its train extra: "
+            "pip install -e '.[train]')"
         ) from err
 
 

@@ -69,7 +69,8 @@ def convert(old: Path, new: Path) -> Path:
         import torch
     except ImportError as err:
         raise ValueError(
-            f"{old}: converting needs torch (pip install 'flatland-ma[train]')"
+            f"{old}: converting needs torch (pip install torch safetensors; or, in a clone "
+            "of flatland_ma, its train extra: pip install -e '.[train]')"
         ) from err
     from flatland_ma.policies.networks import build_network
 

@@ -13,5 +13,6 @@ command line registers its subcommand through ``studio.command``). Its pieces:
 
 The pages are built once from ``studio/frontend`` (``make studio-assets``) into
 ``static/``, shipped as package data: the app needs no network when it runs.
-Starlette and uvicorn come with the ``studio`` extra (``pip install 'flatland-ma[studio]'``).
+Starlette and uvicorn come with the ``studio`` extra (in a clone of flatland_ma:
+``pip install -e '.[studio]'``).
 """

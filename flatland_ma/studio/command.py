@@ -93,7 +93,8 @@ def check(args) -> None:
         import uvicorn  # noqa: F401
     except ImportError:
         raise OptionError(
-            "studio", "the studio needs its extra: pip install 'flatland-ma[studio]'"
+            "studio",
+            "the studio needs its extra: in a clone of flatland_ma, pip install -e '.[studio]'",
         ) from None
 
 
