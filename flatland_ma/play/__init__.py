@@ -10,13 +10,12 @@ window. Everything but the window is plain Python, so tests drive it headless
 from __future__ import annotations
 
 import math
-import os
 import secrets
-import sys
 from pathlib import Path
 
 from flatland_ma.play.keys import KeyMap, Keys, PygameKeys, ScriptedKeys
 from flatland_ma.play.session import OTHERS, SCORE_COLUMNS, Session
+from flatland_ma.render import display
 
 __all__ = [
     "OTHERS",
@@ -30,18 +29,11 @@ __all__ = [
     "play",
 ]
 
-HEADLESS_DRIVERS = ("dummy", "offscreen")
-"""SDL video drivers that need no display (the window exists but nobody sees it)."""
-
 
 def missing_display() -> str | None:
-    """Why no window can open here, or None if one can: on Linux and the like a window
-    needs ``DISPLAY`` (X11) or ``WAYLAND_DISPLAY``, unless SDL draws to no screen."""
-    if os.environ.get("SDL_VIDEODRIVER", "").lower() in HEADLESS_DRIVERS:
-        return None
-    if sys.platform in ("darwin", "win32"):
-        return None
-    if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
+    """Why ``flatland-ma play`` can open no window here, or None if it can
+    (``flatland_ma.render.display``)."""
+    if display.missing_display() is None:
         return None
     return (
         "flatland-ma play needs a display, and there is none here (DISPLAY and "
