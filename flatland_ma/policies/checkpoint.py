@@ -255,7 +255,12 @@ def read_trainer_state(path: str | Path) -> dict:
 
 class CheckpointPolicy:
     """Plays a saved network: samples from its action distribution with its own seeded
-    generator, or takes the most likely action when ``greedy``."""
+    generator, or takes the most likely action when ``greedy``.
+
+    A network with memory (a recurrent core, or ``frames`` > 1) remembers the agent's
+    episode between calls of ``act``; ``reset()`` (which the runners call at every
+    reset, and ``bind``) makes it forget. ``logits`` and ``act_batch`` read each row as
+    an episode's first step."""
 
     def __init__(self, path: str | Path, greedy: bool = False, seed: int | None = None):
         self.path = Path(path)
@@ -265,6 +270,12 @@ class CheckpointPolicy:
         self.rng = np.random.default_rng(seed)
         self._padding: tuple | None = None
         """The padding of the agent played (see ``bind``), or None."""
+        self._memory: Any = None
+        """What the network remembers of the agent's episode so far (None: nothing)."""
+
+    def reset(self) -> None:
+        """Forget the episode: the next ``act`` is an episode's first step."""
+        self._memory = None
 
     @staticmethod
     def for_agent(
@@ -288,6 +299,7 @@ class CheckpointPolicy:
         """Play ``agent`` of ``env``: check its spaces against the network's. A network
         trained on padded observations (agents of several roles, ``pad=True``) reads this
         agent's observation padded as in training, its role named."""
+        self.reset()
         observation_space, action_space, padding = agent_spaces(self.data, env, agent)
         self.check(observation_space, action_space)
         if padding is not None:
@@ -302,26 +314,35 @@ class CheckpointPolicy:
             batch = {key: np.asarray(value)[None] for key, value in observation.items()}
         else:
             batch = np.asarray(observation)[None]
-        action = self.act_batch(batch)[0]
+        if getattr(self.network, "remembers", False):
+            action = self._actions(self._remembered_logits(batch))[0]
+        else:
+            action = self.act_batch(batch)[0]
         return int(action) if np.ndim(action) == 0 else action
+
+    def _remembered_logits(self, batch) -> np.ndarray:
+        """The logits of the agent's next step, its memory carried on."""
+        import torch
+
+        with torch.inference_mode():
+            h, self._memory = self.network.step(_tensors(batch), self._memory)
+            return self.network.actor(h).double().numpy()
 
     def logits(self, observations) -> np.ndarray:
         """The network's logits for a batch of raw observations (every action component's,
-        joined), as float64."""
+        joined), as float64; each row as an episode's first step."""
         import torch
 
-        if isinstance(observations, dict):
-            inputs = {k: torch.as_tensor(v, dtype=torch.float32) for k, v in observations.items()}
-        else:
-            inputs = torch.as_tensor(observations, dtype=torch.float32)
         with torch.inference_mode():
-            return self.network.logits(inputs).double().numpy()
+            return self.network.logits(_tensors(observations)).double().numpy()
 
     def act_batch(self, observations) -> np.ndarray:
         """One action per row of ``observations`` (an array, or a dict of arrays for a
         ``Dict`` space): shape (batch,) for a ``Discrete`` space, (batch, components) for
         a ``MultiDiscrete`` one."""
-        logits = self.logits(observations)
+        return self._actions(self.logits(observations))
+
+    def _actions(self, logits: np.ndarray) -> np.ndarray:
         sizes = self.data["action_sizes"]
         parts = np.split(logits, np.cumsum(sizes)[:-1], axis=1)
         actions = np.stack([self._choose(part) for part in parts], axis=1)
@@ -335,3 +356,12 @@ class CheckpointPolicy:
         cumulative = (p / p.sum(axis=1, keepdims=True)).cumsum(axis=1)
         draws = self.rng.random((len(p), 1))
         return np.minimum((cumulative < draws).sum(axis=1), p.shape[1] - 1)
+
+
+def _tensors(observations):
+    """A batch of raw observations (an array, or a dict of arrays) as float32 tensors."""
+    import torch
+
+    if isinstance(observations, dict):
+        return {k: torch.as_tensor(v, dtype=torch.float32) for k, v in observations.items()}
+    return torch.as_tensor(observations, dtype=torch.float32)

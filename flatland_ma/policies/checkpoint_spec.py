@@ -8,6 +8,8 @@ The description (the safetensors file's ``__metadata__["flatland_ma"]``) holds::
     spaces: {observation: Box | Dict of Box, action: Discrete | MultiDiscrete}   as JSON
     action_sizes                                the choices of each action component
     network: {kind: "ppo" | "a3c", arguments: {...}}   rebuilt by policies.networks
+                                                (ppo's memory and frames default to
+                                                none and 1, as before they existed)
     padded, trained_with, overrides, algorithm, args, update, agent_steps   (optional)
     optimizer                                   the trainer's optimiser state (optional)
 
@@ -85,6 +87,8 @@ class Spaces(_Strict):
 
 
 Hidden = Annotated[int, Field(ge=1, le=4096)]
+MAX_FRAMES = 64
+"""The most observations a network may read at once (``frames``)."""
 Channels = Annotated[int, Field(ge=1, le=64)]
 
 
@@ -93,6 +97,12 @@ class PPOArguments(_Strict):
     channels: Channels
     network: Literal["strided", "paper"]
     state_size: Annotated[int, Field(ge=0, le=2**20)]
+    memory: Literal["none", "gru"] = "none"
+    """The recurrent core after the fully connected layer (checkpoints before it: none)."""
+    memory_size: Hidden = 128
+    """The recurrent core's units (read only with a core)."""
+    frames: Annotated[int, Field(ge=1, le=MAX_FRAMES)] = 1
+    """How many of the last observations the network reads (before it: one)."""
 
 
 class A3CArguments(_Strict):

@@ -11,7 +11,11 @@ PPO's sampling and value to ``PPONetwork``; ``baselines.a3c`` trains ``ActorCrit
   proprioception, ...) flattened. The encodings are joined and pass one fully connected
   layer (``hidden`` units), then one linear head whose logits hold every action
   component's, joined. With ``state_size`` the value comes from a critic of its own on the
-  world's global state (MAPPO's centralised critic), which play never reads.
+  world's global state (MAPPO's centralised critic), which play never reads. With
+  ``frames: K`` each entry is read as its last K observations (joined along its channels,
+  as the Nature DQN's frame stack); with ``memory: "gru"`` a GRU cell of ``memory_size``
+  units follows the fully connected layer, and the heads read its state
+  (``policies.memory`` keeps both between steps).
 - ``a3c``, ``ActorCritic``: the paper's A3C network, Conv1D(32, 8) - Conv1D(48, 4) -
   Conv1D(64, 3) - Dense(hidden), ELU, then the policy's logits and the value.
 
@@ -29,6 +33,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from flatland_ma.policies.memory import MEMORIES, Memory, each, restart, stack_frames
 from flatland_ma.sensors.hearing import MESSAGES
 
 CONV_CHANNELS = (32, 48, 64)
@@ -90,21 +95,24 @@ def strided_trunk(channels: int, rays: int) -> tuple[nn.Sequential, int]:
 
 
 class ImageInput(nn.Module):
-    """A first-person image (batch, rays, channels) through 1-D convolutions."""
+    """A first-person image (batch, rays, channels) through 1-D convolutions; with
+    ``frames`` K > 1, K of them (batch, K, rays, channels), their channels joined."""
 
-    def __init__(self, shape: Sequence[int], channels: int, network: str):
+    def __init__(self, shape: Sequence[int], channels: int, network: str, frames: int = 1):
         super().__init__()
-        rays, self.channels = shape[0], min(channels, shape[1])
+        rays, self.channels, self.frames = shape[0], min(channels, shape[1]), frames
         if network == "paper":
             if trunk_length(rays) // 2 < 1:
                 raise ValueError(f"an image of {rays} rays is too short for the paper's trunk")
-            self.trunk = nn.Sequential(conv_trunk(self.channels), nn.MaxPool1d(2))
+            self.trunk = nn.Sequential(conv_trunk(frames * self.channels), nn.MaxPool1d(2))
             self.features = 64 * (trunk_length(rays) // 2)
         else:
-            self.trunk, self.features = strided_trunk(self.channels, rays)
+            self.trunk, self.features = strided_trunk(frames * self.channels, rays)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         x = x[..., : self.channels].transpose(-1, -2)
+        if self.frames > 1:  # (batch, K, channels, rays): frame k's channels k C ... (k + 1) C
+            x = x.flatten(1, 2)
         if torch.is_grad_enabled():
             return self.trunk(x).flatten(1)
         for layer in self.trunk:  # acting: no gradient, small batches
@@ -129,11 +137,14 @@ def unfolded_conv1d(x: torch.Tensor, conv: nn.Conv1d) -> torch.Tensor:
 
 
 class MapInput(nn.Module):
-    """A map (batch, height, width, channels) through 2-D convolutions."""
+    """A map (batch, height, width, channels) through 2-D convolutions; with ``frames``
+    K > 1, K of them (batch, K, height, width, channels), their channels joined."""
 
-    def __init__(self, shape: Sequence[int]):
+    def __init__(self, shape: Sequence[int], frames: int = 1):
         super().__init__()
         height, width, channels = shape
+        self.frames = frames
+        channels *= frames
         layers = []
         for filters, kernel, stride in MAP:
             layers += [nn.Conv2d(channels, filters, kernel, stride), nn.ReLU()]
@@ -145,36 +156,47 @@ class MapInput(nn.Module):
         self.features = channels * height * width
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if self.frames > 1:
+            return self.trunk(x.permute(0, 1, 4, 2, 3).flatten(1, 2)).flatten(1)
         return self.trunk(x.permute(0, 3, 1, 2)).flatten(1)
 
 
 class FlatInput(nn.Module):
-    """Any other entry, flattened."""
+    """Any other entry, flattened (with ``frames`` K > 1, its K frames one after another)."""
 
-    def __init__(self, shape: Sequence[int]):
+    def __init__(self, shape: Sequence[int], frames: int = 1):
         super().__init__()
-        self.features = int(np.prod(shape))
+        self.features = frames * int(np.prod(shape))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return x.flatten(1)
 
 
-def entry_input(key: str, shape: Sequence[int], channels: int, network: str) -> nn.Module:
-    """The encoder of one observation entry, chosen by its shape (the heard messages,
-    one row per speaker, are not an image)."""
+def entry_input(
+    key: str, shape: Sequence[int], channels: int, network: str, frames: int = 1
+) -> nn.Module:
+    """The encoder of one observation entry of ``shape`` (read as its last ``frames``
+    observations), chosen by its shape (the heard messages, one row per speaker, are not
+    an image)."""
     if len(shape) == 2 and shape[1] >= 3 and key != MESSAGES:
-        return ImageInput(shape, channels, network)
+        return ImageInput(shape, channels, network, frames)
     if len(shape) == 3:
-        return MapInput(shape)
-    return FlatInput(shape)
+        return MapInput(shape, frames)
+    return FlatInput(shape, frames)
 
 
 class PPONetwork(nn.Module):
-    """Encoders per observation entry - Dense(hidden), then the policy's head (every action
-    component's logits, joined) and the value's; orthogonal initialisation as in CleanRL.
-    ``entries`` maps each entry of a ``Dict`` observation to its shape in the space's
-    order, or is ``{BOX: shape}`` for one ``Box``; ``sizes`` are the action components'
-    numbers of choices."""
+    """Encoders per observation entry - Dense(hidden) [- GRU cell(memory_size)], then the
+    policy's head (every action component's logits, joined) and the value's; orthogonal
+    initialisation as in CleanRL. ``entries`` maps each entry of a ``Dict`` observation to
+    its shape in the space's order, or is ``{BOX: shape}`` for one ``Box``; ``sizes`` are
+    the action components' numbers of choices; ``frames`` how many of the last
+    observations it reads, ``memory`` its recurrent core (``policies.memory.MEMORIES``).
+
+    ``step`` acts on one step of every row, given and giving its ``Memory``; ``replay``
+    runs whole sequences from a recurrent state; ``logits`` (and ``forward``) read a batch
+    of observations each as an episode's first (for a network without memory, simply its
+    logits)."""
 
     kind = "ppo"
 
@@ -186,13 +208,19 @@ class PPONetwork(nn.Module):
         channels: int = 3,
         network: str = "strided",
         state_size: int = 0,
+        memory: str = "none",
+        memory_size: int = 128,
+        frames: int = 1,
     ):
         super().__init__()
+        if memory not in MEMORIES or frames < 1:
+            raise ValueError(f"memory {memory!r} (one of {MEMORIES}), frames {frames} (>= 1)")
         self.dict_input = list(entries) != [BOX]
         self.hidden, self.channels, self.network = hidden, channels, network
+        self.memory, self.memory_size, self.frames = memory, memory_size, frames
         self.inputs = nn.ModuleDict(
             {
-                key or "observation": entry_input(key, shape, channels, network)
+                key or "observation": entry_input(key, shape, channels, network, frames)
                 for key, shape in entries.items()
             }
         )
@@ -201,8 +229,17 @@ class PPONetwork(nn.Module):
         for layer in [*self.inputs.modules(), *self.body.modules()]:
             if isinstance(layer, (nn.Conv1d, nn.Conv2d, nn.Linear)):
                 layer_init(layer)
+        self.core = nn.GRUCell(hidden, memory_size) if memory == "gru" else None
+        """The recurrent core, or None; orthogonal weights and zero biases (as CleanRL's
+        LSTM)."""
+        if self.core is not None:
+            for name, parameter in self.core.named_parameters():
+                init = nn.init.orthogonal_ if name.startswith("weight") else nn.init.zeros_
+                init(parameter)
+        width = memory_size if self.core is not None else hidden
+        """The width of what the heads read."""
         self.sizes = tuple(int(n) for n in sizes)
-        self.actor = layer_init(nn.Linear(hidden, sum(self.sizes)), std=0.01)
+        self.actor = layer_init(nn.Linear(width, sum(self.sizes)), std=0.01)
         self.state_size = state_size
         """The length of the centralised critic's input; 0: the value reads the features."""
         if state_size:
@@ -214,7 +251,7 @@ class PPONetwork(nn.Module):
                 layer_init(nn.Linear(hidden, 1), std=1.0),
             )
         else:
-            self.critic = layer_init(nn.Linear(hidden, 1), std=1.0)
+            self.critic = layer_init(nn.Linear(width, 1), std=1.0)
 
     def arguments(self) -> dict:
         """The constructor's arguments besides the spaces, as a checkpoint records them."""
@@ -223,7 +260,15 @@ class PPONetwork(nn.Module):
             "channels": self.channels,
             "network": self.network,
             "state_size": self.state_size,
+            "memory": self.memory,
+            "memory_size": self.memory_size,
+            "frames": self.frames,
         }
+
+    @property
+    def remembers(self) -> bool:
+        """Whether what it does depends on earlier steps of the episode."""
+        return self.core is not None or self.frames > 1
 
     def features(self, observation) -> torch.Tensor:
         if self.dict_input:
@@ -232,9 +277,46 @@ class PPONetwork(nn.Module):
             parts = [self.inputs["observation"](observation)]
         return self.body(torch.cat(parts, dim=1) if len(parts) > 1 else parts[0])
 
+    def step(
+        self, observation, memory: Memory | None = None, starts: torch.Tensor | None = None
+    ) -> tuple[torch.Tensor, Memory]:
+        """What the heads read for one step of every row, and the rows' memory after it,
+        from ``memory`` (None: every row's first step) with the rows where ``starts``
+        (batch,) is true beginning an episode."""
+        frames = hidden = None
+        if self.frames > 1:
+            past = None if memory is None else memory.frames
+            observation = frames = stack_frames(observation, past, starts, self.frames)
+        h = self.features(observation)
+        if self.core is not None:
+            if memory is None or memory.hidden is None:
+                previous = h.new_zeros((h.shape[0], self.memory_size))
+            else:
+                previous = restart(memory.hidden, starts)
+            h = hidden = self.core(h, previous)
+        return h, Memory(frames, hidden)
+
+    def replay(self, observations, hidden: torch.Tensor | None, starts: torch.Tensor):
+        """What the heads read at each step of T steps of B rows: ``observations`` (T, B,
+        ...) as ``features`` reads them (frames already stacked), from the recurrent state
+        ``hidden`` (B, memory_size) before the first step, restarted where ``starts``
+        (T, B) is true; (T, B, width)."""
+        steps, rows = starts.shape
+        h = self.features(each(lambda x: x.flatten(0, 1), observations))
+        h = h.unflatten(0, (steps, rows))
+        if self.core is None:
+            return h
+        assert hidden is not None, "a recurrent core replays from its state"
+        out = []
+        for t in range(steps):
+            hidden = self.core(h[t], restart(hidden, starts[t]))
+            out.append(hidden)
+        return torch.stack(out)
+
     def forward(self, observation) -> torch.Tensor:
-        """The policy's logits, every head's joined along the last axis."""
-        return self.actor(self.features(observation))
+        """The policy's logits, every head's joined along the last axis, each row read as
+        an episode's first step."""
+        return self.actor(self.step(observation)[0])
 
     def logits(self, observation) -> torch.Tensor:
         return self(observation)
