@@ -90,6 +90,9 @@ class Agent(PPONetwork):
         channels: int = 3,
         network: str = "strided",
         state_size: int = 0,
+        memory: str = "none",
+        memory_size: int = 128,
+        frames: int = 1,
     ):
         super().__init__(
             observation_entries(observation_space),
@@ -98,6 +101,9 @@ class Agent(PPONetwork):
             channels,
             network,
             state_size,
+            memory,
+            memory_size,
+            frames,
         )
 
     def value(self, observation, state: torch.Tensor | None = None) -> torch.Tensor:
@@ -120,7 +126,17 @@ class Agent(PPONetwork):
         entropy and the value (from ``state`` with a centralised critic). Each head is a
         categorical over its logits, computed from the log-softmax directly (a third of
         ``torch.distributions.Categorical``'s cost at an acting batch)."""
-        h = self.features(observation)
+        return self.decide(self.features(observation), action, state, generator)
+
+    def decide(
+        self,
+        h: torch.Tensor,
+        action: torch.Tensor | None = None,
+        state=None,
+        generator: torch.Generator | None = None,
+    ):
+        """``act`` from what the heads read: ``features``, or with memory what ``step`` or
+        ``replay`` give."""
         heads = [logits.log_softmax(-1) for logits in self.actor(h).split(self.sizes, dim=-1)]
         if action is None:
             action = torch.cat(

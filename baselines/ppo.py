@@ -20,7 +20,8 @@ Options beyond CleanRL's, each off by default: ``--preset NAME``, settings chose
 task (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's
 summed reward, and ``--shaping W``, a potential-based term for delivery tasks
 (``baselines.shaping``); ``--curriculum FILE``, the tasks of a stream file in turn
-(``baselines.curriculum``). The log always keeps each agent's own, unshaped return.
+(``baselines.curriculum``); ``--memory gru`` and ``--frames K``, a policy with memory
+(``baselines.ppo_memory``). The log always keeps each agent's own, unshaped return.
 
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
 episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
@@ -55,6 +56,7 @@ from baselines.common import (
 from baselines.curriculum import Stage, curriculum_stages
 from baselines.networks import Agent
 from baselines.ppo_learner import Overlapped, Rollout, keep_freed_memory
+from baselines.ppo_memory import MemoryRollout
 from baselines.ppo_presets import with_preset
 from baselines.shaping import learning_reward
 from baselines.writer import Scalars
@@ -141,6 +143,16 @@ class Args:
     curriculum: str = ""
     """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
     their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""
+    memory: Literal["none", "gru"] = "none"
+    """The policy's recurrent core: "gru", a one-layer GRU of ``memory_size`` units after
+    the fully connected layer, its state carried through each episode and trained on whole
+    sequences of slots (``baselines.ppo_memory``; minibatches of slots, so at most
+    ``num_envs * agents`` of them); "none", a feed-forward policy."""
+    memory_size: int = 128
+    """Units of the recurrent core."""
+    frames: int = 1
+    """How many of its last observations the policy reads at once (a frame stack, the
+    first observation repeated at an episode's start); 1: the current one alone."""
 
 
 def batched_env(args: Args, stage: Stage | None = None):
@@ -170,6 +182,10 @@ def run_name(args: Args) -> str:
 
 def main(args: Args) -> dict:
     args = with_preset(args)
+    if args.overlap and (args.memory != "none" or args.frames > 1):
+        raise ValueError(
+            "--overlap collects with feed-forward policies only (no --memory, --frames)"
+        )
     setup_cpu, load_start = cpu_seconds(), os.getloadavg()
     seed_everything(args.seed)
     torch.set_num_threads(args.torch_threads)
@@ -197,6 +213,9 @@ def main(args: Args) -> dict:
         input_channels(args.use_depth),
         args.network,
         state_size=env.single_state_space.shape[0] + m if args.critic == "state" else 0,
+        memory=args.memory,
+        memory_size=args.memory_size,
+        frames=args.frames,
     )
     optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
     # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
@@ -206,7 +225,9 @@ def main(args: Args) -> dict:
     overlapped = (
         Overlapped(agent, env, observation, args.num_steps, args.seed) if args.overlap else None
     )
-    rollout = Rollout(agent, env, observation, args.num_steps)
+    rollout = (MemoryRollout if agent.remembers else Rollout)(
+        agent, env, observation, args.num_steps
+    )
     if overlapped is not None:
         print("overlap: each rollout is acted by the policy of one update before", flush=True)
     start, cpu_start = time.perf_counter(), cpu_seconds()
