@@ -315,17 +315,19 @@ class CheckpointPolicy:
         else:
             batch = np.asarray(observation)[None]
         if getattr(self.network, "remembers", False):
-            action = self._actions(self._remembered_logits(batch))[0]
+            action = self._actions(self.step_logits(batch))[0]
         else:
             action = self.act_batch(batch)[0]
         return int(action) if np.ndim(action) == 0 else action
 
-    def _remembered_logits(self, batch) -> np.ndarray:
-        """The logits of the agent's next step, its memory carried on."""
+    def step_logits(self, observations) -> np.ndarray:
+        """The logits (as ``logits``) of the next step of the agents whose memory this
+        policy keeps (one: ``act``'s agent), from a batch of their observations; their
+        memory moves on by the step. A network with memory only (``act`` uses it)."""
         import torch
 
         with torch.inference_mode():
-            h, self._memory = self.network.step(_tensors(batch), self._memory)
+            h, self._memory = self.network.step(_tensors(observations), self._memory)
             return self.network.actor(h).double().numpy()
 
     def logits(self, observations) -> np.ndarray:

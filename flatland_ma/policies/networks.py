@@ -307,10 +307,10 @@ class PPONetwork(nn.Module):
         if self.core is None:
             return h
         assert hidden is not None, "a recurrent core replays from its state"
-        out = []
+        out, state = [], hidden
         for t in range(steps):
-            hidden = self.core(h[t], restart(hidden, starts[t]))
-            out.append(hidden)
+            state = self.core(h[t], restart(state, starts[t]))
+            out.append(state)
         return torch.stack(out)
 
     def forward(self, observation) -> torch.Tensor:
