@@ -24,6 +24,7 @@ from flatland_ma.cli import main  # noqa: E402
 from flatland_ma.envs.vector import BatchedParallelEnv  # noqa: E402
 from flatland_ma.policies.checkpoint import CheckpointPolicy, write_checkpoint  # noqa: E402
 from flatland_ma.policies.memory import (  # noqa: E402
+    Memory,
     each,
     gather_stacks,
     stack_frames,
@@ -148,8 +149,8 @@ def test_a_slot_acts_at_its_episodes_first_step_as_a_fresh_policy_would():
         h, _ = agent.step(rollout.observations[steps, slots])
         fresh = agent.decide(h, rollout.actions[steps, slots])[1]
         carried = torch.zeros(len(steps), agent.memory_size) + rollout.initial.mean() + 0.5
-        assert agent.core is not None
-        h_carried = agent.core(agent.features(rollout.observations[steps, slots]), carried)
+        features = rollout.observations[steps, slots]
+        h_carried, _ = agent.step(features, Memory(None, carried), torch.zeros(len(steps)))
         other = agent.decide(h_carried, rollout.actions[steps, slots])[1]
     torch.testing.assert_close(fresh, rollout.logprobs[steps, slots], atol=1e-6, rtol=1e-6)
     assert not torch.allclose(other, fresh, atol=1e-5)  # a state does change the action
@@ -317,3 +318,23 @@ def test_the_studio_watch_plays_a_recurrent_checkpoint_with_its_memory(tmp_path)
     np.testing.assert_allclose(remembered, by_hand.step_logits(following), rtol=1e-6, atol=1e-9)
     assert not np.allclose(remembered, played.logits(following))
     watch.close()
+
+
+def test_a_replay_over_spans_is_the_same_as_stepping_one_step_at_a_time():
+    """Episodes beginning at different steps in different rows: the core runs over the
+    spans between them, and reads at each step the state stepping reaches."""
+    from flatland_ma.policies.networks import BOX, PPONetwork
+
+    torch.manual_seed(4)
+    network = PPONetwork({BOX: (5,)}, [3], hidden=8, memory="gru", memory_size=6)
+    observations = torch.randn(20, 3, 5)
+    starts = torch.zeros(20, 3)
+    starts[[3, 4, 11, 11, 17], [0, 2, 1, 2, 0]] = 1.0
+    hidden = torch.randn(3, 6)
+    memory, stepped = Memory(None, hidden), []
+    with torch.no_grad():
+        for t in range(20):
+            h, memory = network.step(observations[t], memory, starts[t])
+            stepped.append(h)
+        replayed = network.replay(observations, hidden, starts)
+    torch.testing.assert_close(replayed, torch.stack(stepped), atol=1e-6, rtol=1e-6)

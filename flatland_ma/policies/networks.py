@@ -213,8 +213,10 @@ class PPONetwork(nn.Module):
         frames: int = 1,
     ):
         super().__init__()
-        if memory not in MEMORIES or frames < 1:
-            raise ValueError(f"memory {memory!r} (one of {MEMORIES}), frames {frames} (>= 1)")
+        if memory not in MEMORIES:
+            raise ValueError(f"memory {memory!r}: one of {', '.join(MEMORIES)}")
+        if frames < 1 or memory_size < 1:
+            raise ValueError(f"frames {frames}, memory_size {memory_size}: each at least 1")
         self.dict_input = list(entries) != [BOX]
         self.hidden, self.channels, self.network = hidden, channels, network
         self.memory, self.memory_size, self.frames = memory, memory_size, frames
@@ -229,9 +231,9 @@ class PPONetwork(nn.Module):
         for layer in [*self.inputs.modules(), *self.body.modules()]:
             if isinstance(layer, (nn.Conv1d, nn.Conv2d, nn.Linear)):
                 layer_init(layer)
-        self.core = nn.GRUCell(hidden, memory_size) if memory == "gru" else None
-        """The recurrent core, or None; orthogonal weights and zero biases (as CleanRL's
-        LSTM)."""
+        self.core = nn.GRU(hidden, memory_size) if memory == "gru" else None
+        """The recurrent core (one layer), or None; orthogonal weights and zero biases (as
+        CleanRL's LSTM)."""
         if self.core is not None:
             for name, parameter in self.core.named_parameters():
                 init = nn.init.orthogonal_ if name.startswith("weight") else nn.init.zeros_
@@ -293,25 +295,28 @@ class PPONetwork(nn.Module):
                 previous = h.new_zeros((h.shape[0], self.memory_size))
             else:
                 previous = restart(memory.hidden, starts)
-            h = hidden = self.core(h, previous)
+            h = hidden = self.core(h.unsqueeze(0), previous.unsqueeze(0))[0][0]
         return h, Memory(frames, hidden)
 
     def replay(self, observations, hidden: torch.Tensor | None, starts: torch.Tensor):
         """What the heads read at each step of T steps of B rows: ``observations`` (T, B,
         ...) as ``features`` reads them (frames already stacked), from the recurrent state
         ``hidden`` (B, memory_size) before the first step, restarted where ``starts``
-        (T, B) is true; (T, B, width)."""
+        (T, B) is true; (T, B, width). The core runs over the spans between the steps
+        where some row starts an episode, one call each."""
         steps, rows = starts.shape
         h = self.features(each(lambda x: x.flatten(0, 1), observations))
         h = h.unflatten(0, (steps, rows))
         if self.core is None:
             return h
         assert hidden is not None, "a recurrent core replays from its state"
+        cuts = [0, *(t for t in starts.any(dim=1).nonzero().flatten().tolist() if t), steps]
         out, state = [], hidden
-        for t in range(steps):
-            state = self.core(h[t], restart(state, starts[t]))
-            out.append(state)
-        return torch.stack(out)
+        for begin, end in zip(cuts[:-1], cuts[1:]):
+            span = self.core(h[begin:end], restart(state, starts[begin]).unsqueeze(0))[0]
+            out.append(span)
+            state = span[-1]
+        return torch.cat(out)
 
     def forward(self, observation) -> torch.Tensor:
         """The policy's logits, every head's joined along the last axis, each row read as
