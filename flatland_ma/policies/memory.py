@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 import torch
 
 MEMORIES = ("none", "gru")
-"""The recurrent cores a ``PPONetwork`` may have: none, or a GRU cell."""
+"""The recurrent cores a ``PPONetwork`` may have: none, or a one-layer GRU."""
 
 
 class Memory(NamedTuple):

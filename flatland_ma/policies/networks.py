@@ -13,7 +13,7 @@ PPO's sampling and value to ``PPONetwork``; ``baselines.a3c`` trains ``ActorCrit
   component's, joined. With ``state_size`` the value comes from a critic of its own on the
   world's global state (MAPPO's centralised critic), which play never reads. With
   ``frames: K`` each entry is read as its last K observations (joined along its channels,
-  as the Nature DQN's frame stack); with ``memory: "gru"`` a GRU cell of ``memory_size``
+  as the Nature DQN's frame stack); with ``memory: "gru"`` a one-layer GRU of ``memory_size``
   units follows the fully connected layer, and the heads read its state
   (``policies.memory`` keeps both between steps).
 - ``a3c``, ``ActorCritic``: the paper's A3C network, Conv1D(32, 8) - Conv1D(48, 4) -
@@ -186,7 +186,7 @@ def entry_input(
 
 
 class PPONetwork(nn.Module):
-    """Encoders per observation entry - Dense(hidden) [- GRU cell(memory_size)], then the
+    """Encoders per observation entry - Dense(hidden) [- GRU(memory_size)], then the
     policy's head (every action component's logits, joined) and the value's; orthogonal
     initialisation as in CleanRL. ``entries`` maps each entry of a ``Dict`` observation to
     its shape in the space's order, or is ``{BOX: shape}`` for one ``Box``; ``sizes`` are
