@@ -119,7 +119,11 @@ def test_the_update_replays_the_memory_each_step_acted_from(scenario, options):
     env, observation = _short_env(scenario)
     agent = Agent(env.single_observation_space, env.single_action_space, **SMALL, **options)
     rollout = MemoryRollout(agent, env, observation, 11)
-    _collect(rollout, agent, env, observation)
+    observation = _collect(rollout, agent, env, observation, times=1)
+    bootstrap = rollout.next_value.clone()
+    _collect(rollout, agent, env, observation, times=1)
+    # The first rollout bootstrapped from the value the second's first step acted with.
+    torch.testing.assert_close(bootstrap, rollout.values[0], atol=1e-6, rtol=1e-6)
     ends, starts = rollout.ends, rollout.starts
     assert ends.any() and torch.equal(starts[2:], ends[:-2])  # NEXT_STEP: one step between
     if agent.core is not None:
@@ -164,9 +168,9 @@ def test_one_update_over_sequences_runs_and_moves_the_weights():
     agent = Agent(env.single_observation_space, env.single_action_space, **SMALL, memory="gru")
     optimizer = torch.optim.Adam(agent.parameters(), lr=1e-3)
     rollout = MemoryRollout(agent, env, observation, 8)
-    observation = _collect(rollout, agent, env, observation, times=1)
+    _collect(rollout, agent, env, observation, times=1)
     before = [p.detach().clone() for p in agent.parameters()]
-    stats = rollout.learn(agent, optimizer, args, observation)
+    stats = rollout.learn(agent, optimizer, args)
     assert all(np.isfinite(v) for v in stats.values()) and "losses/approx_kl" in stats
     assert all(not torch.equal(a, b) for a, b in zip(before, agent.parameters()))
     env.close()
@@ -338,3 +342,12 @@ def test_a_replay_over_spans_is_the_same_as_stepping_one_step_at_a_time():
             stepped.append(h)
         replayed = network.replay(observations, hidden, starts)
     torch.testing.assert_close(replayed, torch.stack(stepped), atol=1e-6, rtol=1e-6)
+
+
+def test_overlapped_collection_is_refused_for_a_policy_with_memory():
+    from baselines.ppo import main as train
+
+    with pytest.raises(ValueError, match="--overlap collects with feed-forward policies only"):
+        train(Args(overlap=True, memory="gru"))
+    with pytest.raises(ValueError, match="--overlap collects with feed-forward policies only"):
+        train(Args(overlap=True, frames=2))
