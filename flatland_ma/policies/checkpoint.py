@@ -323,7 +323,7 @@ class CheckpointPolicy:
     def step_logits(self, observations) -> np.ndarray:
         """The logits (as ``logits``) of the next step of the agents whose memory this
         policy keeps (one: ``act``'s agent), from a batch of their observations; their
-        memory moves on by the step. A network with memory only (``act`` uses it)."""
+        memory moves on by the step (without memory: ``logits``)."""
         import torch
 
         with torch.inference_mode():
