@@ -32,6 +32,7 @@ from torch import nn
 from torch.utils._pytree import tree_leaves, tree_map
 
 from baselines.networks import Agent
+from baselines.ppo_loss import ppo_loss
 
 
 def keep_freed_memory() -> bool:
@@ -88,11 +89,8 @@ def update(
     generator: torch.Generator | None = None,
 ) -> dict:
     """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
-    mean losses. Clipped surrogate, clipped value loss, entropy bonus:
-        L = -min(ratio A, clip(ratio, 1 - eps, 1 + eps) A)
-            + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
-            - ent_coef * H [+ penalty()],   ratio = pi(a|s) / pi_old(a|s)
-    with V read from ``states`` where the critic is centralised. Minibatches are drawn
+    mean losses. The loss is ``baselines.ppo_loss``'s [+ ``penalty()``], with V read
+    from ``states`` where the critic is centralised. Minibatches are drawn
     from ``generator`` (torch's global one if None)."""
     used = acting.reshape(-1).nonzero().squeeze(1)
     b_states = None if states is None else states.reshape(-1, states.shape[-1])
@@ -111,24 +109,18 @@ def update(
             x = tree_map(lambda x, index=index: x[index], b_x)
             state = None if b_states is None else b_states[index]
             _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
-            log_ratio = new_logprob - b_logprobs[index]
-            ratio = log_ratio.exp()
-            advantage = b_advantages[index]
-            advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
-            policy_loss = torch.max(
-                -advantage * ratio,
-                -advantage * ratio.clamp(1 - args.clip_coef, 1 + args.clip_coef),
-            ).mean()
-            clipped = b_values[index] + (new_value - b_values[index]).clamp(
-                -args.clip_coef, args.clip_coef
+            loss, parts = ppo_loss(
+                args.clip_coef,
+                args.vf_coef,
+                args.ent_coef,
+                new_logprob,
+                entropy,
+                new_value,
+                b_logprobs[index],
+                b_advantages[index],
+                b_returns[index],
+                b_values[index],
             )
-            value_loss = (
-                0.5
-                * torch.max(
-                    (new_value - b_returns[index]).square(), (clipped - b_returns[index]).square()
-                ).mean()
-            )
-            loss = policy_loss + args.vf_coef * value_loss - args.ent_coef * entropy.mean()
             if penalty is not None:  # e.g. EWC's pull towards earlier tasks' parameters
                 loss = loss + penalty()
             optimizer.zero_grad(set_to_none=True)
@@ -136,18 +128,8 @@ def update(
             nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
             optimizer.step()
             if epoch == args.update_epochs - 1:
-                with torch.no_grad():
-                    for key, value in (
-                        ("losses/policy", policy_loss),
-                        ("losses/value", value_loss),
-                        ("losses/entropy", entropy.mean()),
-                        ("losses/approx_kl", ((ratio - 1) - log_ratio).mean()),
-                        (
-                            "losses/clip_fraction",
-                            ((ratio - 1).abs() > args.clip_coef).float().mean(),
-                        ),
-                    ):
-                        stats.setdefault(key, []).append(value.detach())
+                for key, value in parts.items():
+                    stats.setdefault(key, []).append(value)
     return {key: float(torch.stack(values).mean()) for key, values in stats.items()}
 
 
