@@ -182,6 +182,7 @@ class Rollout:
         of slots whose action the env used. The rollout keeps
         ``learn_from(reward, terminated) * reward_scale`` (the reward itself when
         ``learn_from`` is None). Returns the last observation."""
+        self.begin(env)
         stored = tree_leaves(self._observations)
         for t in range(self.steps):
             for into, x in zip(stored, tree_leaves(observation)):
@@ -191,9 +192,7 @@ class Rollout:
             if self.states is not None:
                 self.states[t] = state = torch.from_numpy(slot_states(env))
             with torch.no_grad():
-                action, logprob, _, value = agent.act(
-                    self.views[t], state=state, generator=self.generator
-                )
+                action, logprob, value = self.decide(agent, t, state)
             chosen = self._actions[t]
             chosen[:] = action.numpy()
             self._logprobs[t], self._values[t] = logprob.numpy(), value.numpy()
@@ -211,8 +210,23 @@ class Rollout:
             self.next_acting = infos["active"] & ~done
         next_state = None if self.states is None else torch.from_numpy(slot_states(env))
         with torch.no_grad():
-            self.next_value = agent.value(tree_map(torch.from_numpy, observation), next_state)
+            self.next_value = self.bootstrap(agent, observation, next_state)
         return observation
+
+    # What a rollout of a policy with memory (baselines.ppo_memory) does its own way.
+
+    def begin(self, env) -> None:
+        """Before the rollout's first step (nothing to keep without memory)."""
+
+    def decide(self, agent: Agent, t: int, state):
+        """The action, its log-probability and the value at step ``t``, whose
+        observations are in ``views[t]``."""
+        action, logprob, _, value = agent.act(self.views[t], state=state, generator=self.generator)
+        return action, logprob, value
+
+    def bootstrap(self, agent: Agent, observation, state) -> torch.Tensor:
+        """The value of what the rollout's last step returned."""
+        return agent.value(tree_map(torch.from_numpy, observation), state)
 
     def learn(self, agent: Agent, optimizer, args, penalty=None, generator=None) -> dict:
         """GAE, bootstrapped from the value of what the rollout's last step returned (by

@@ -24,30 +24,31 @@ frames alone, minibatches are of steps, as without memory, each with its stack.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import torch
 from torch import nn
 from torch.utils._pytree import tree_leaves, tree_map
 
 from baselines.networks import Agent
-from baselines.ppo_learner import Rollout, gae, slot_states
+from baselines.ppo_learner import Rollout, gae
 from baselines.ppo_loss import ppo_loss
 from flatland_ma.policies.memory import Memory, each, gather_stacks, stack_indices
 
 
 class MemoryRollout(Rollout):
-    """``Rollout`` for an ``Agent`` with memory: the same ``collect`` and ``learn`` (not
+    """``Rollout`` for an ``Agent`` with memory: the same ``collect`` (its ``begin``,
+    ``decide`` and ``bootstrap`` carry the memory) and its own ``learn`` (not
     for ``Overlapped``, whose two rollouts would have to hand the memory on)."""
 
     def __init__(self, agent: Agent, env, observation, steps: int):
         super().__init__(agent, env, observation, steps)
         self.k = k = agent.frames
-        self.frames = tree_map(
-            lambda x: x.new_zeros((k - 1 + steps, *x.shape[1:])), self.observations
+        frames = tree_map(
+            lambda x: np.zeros((k - 1 + steps, *x.shape[1:]), x.dtype), self._observations
         )
+        self.frames = tree_map(torch.from_numpy, frames)
         """The K - 1 frames of each slot's stack before the rollout, then its T frames."""
+        self._observations = tree_map(lambda x: x[k - 1 :], frames)
         self.observations = tree_map(lambda x: x[k - 1 :], self.frames)
         self.views = [tree_map(lambda x, t=t: x[t], self.observations) for t in range(steps)]
         self.starts = torch.zeros((steps, env.num_slots))
@@ -76,48 +77,27 @@ class MemoryRollout(Rollout):
                 before[: self.k - 1] = stack[:, 1:].transpose(0, 1)
         return False
 
-    def collect(
-        self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
-    ):
-        """``Rollout.collect``, each slot's memory carried from step to step."""
-        fresh = self._begin(env)
-        leaves = tree_leaves(self.observations)
-        for t in range(self.steps):
-            for stored, x in zip(leaves, tree_leaves(observation)):
-                stored[t].copy_(torch.from_numpy(x))
-            acting = self.next_acting.copy()
-            self.acting[t] = torch.from_numpy(acting)
-            self.starts[t] = torch.from_numpy(acting & ~self.previous_acting)
-            if fresh and t == 0:
-                self.starts[0] = 1.0
-            self.previous_acting = acting
-            state = None
-            if self.states is not None:
-                self.states[t] = state = torch.from_numpy(slot_states(env))
-            with torch.no_grad():
-                h, self.memory = agent.step(self.views[t], self.memory, self.starts[t])
-                action, logprob, _, value = agent.decide(h, state=state, generator=self.generator)
-            self.actions[t], self.logprobs[t], self.values[t] = action, logprob, value
-            tick = time.perf_counter()
-            sent = action[:, 0] if self.discrete else action
-            observation, reward, terminated, truncated, infos = env.step(sent.numpy())
-            self.env_seconds += time.perf_counter() - tick
-            done = terminated | truncated
-            learnt = reward if learn_from is None else learn_from(reward, terminated)
-            self.rewards[t] = torch.from_numpy(learnt * reward_scale)
-            self.ends[t] = torch.from_numpy(done)
-            self.stops[t] = torch.from_numpy(terminated)
-            after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
-            # The env uses a slot's action next step unless it just finished or was inert.
-            self.next_acting = infos["active"] & ~done
-        # The bootstrap's value: what the last step returned, read with each slot's memory
-        # (which the next rollout's first step moves on from again).
-        next_state = None if self.states is None else torch.from_numpy(slot_states(env))
+    def begin(self, env) -> None:
+        self.fresh = self._begin(env)
+
+    def decide(self, agent: Agent, t: int, state):
+        """The step's action, each slot's memory carried on from its last step (and
+        restarted where the slot acts again after its world's reset)."""
+        acting = self.next_acting.copy()
+        self.starts[t] = torch.from_numpy(acting & ~self.previous_acting)
+        if self.fresh and t == 0:
+            self.starts[0] = 1.0
+        self.previous_acting = acting
+        h, self.memory = agent.step(self.views[t], self.memory, self.starts[t])
+        action, logprob, _, value = agent.decide(h, state=state, generator=self.generator)
+        return action, logprob, value
+
+    def bootstrap(self, agent: Agent, observation, state) -> torch.Tensor:
+        """The value of what the last step returned, read with each slot's memory (which
+        the next rollout's first step moves on from again)."""
         starts = torch.from_numpy(self.next_acting & ~self.previous_acting)
-        with torch.no_grad():
-            h, _ = agent.step(tree_map(torch.from_numpy, observation), self.memory, starts)
-            self.next_value = agent.critic(h if next_state is None else next_state).squeeze(-1)
-        return observation
+        h, _ = agent.step(tree_map(torch.from_numpy, observation), self.memory, starts)
+        return agent.critic(h if state is None else state).squeeze(-1)
 
     def learn(self, agent: Agent, optimizer, args, penalty=None, generator=None) -> dict:
         """GAE bootstrapped from the value of what the rollout's last step returned, then
