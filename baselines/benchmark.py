@@ -498,7 +498,11 @@ def run(
                 if time.monotonic() > stop:
                     print("benchmark: out of time; run it again to go on", flush=True)
                     return written
-                print(f"benchmark: {name} {method} seed {seed} ({tier})", flush=True)
+                print(
+                    f"benchmark: {name} {method} seed {seed}"
+                    + (f" ({tier})" if method in LEARNED else ""),
+                    flush=True,
+                )
                 record = run_one(name, kind, method, seed, config, tier_runs(runs, tier), tier)
                 write_record(path, record)
                 written.append(path)

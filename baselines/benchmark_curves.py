@@ -96,7 +96,9 @@ def draw_curves(name: str, tiers: dict[str, dict], lines: dict[str, float], path
     styles = {"random": ("tab:red", ":"), "scripted": ("tab:green", "--")}
     for label, value in lines.items():
         colour, style = styles.get(label, ("tab:orange", "-."))
-        ax.axhline(value, color=colour, ls=style, lw=1, label=f"{label} (held-out)")
+        ax.axhline(
+            value, color=colour, ls=style, lw=1, label=f"{label.replace('_', '-')} (held-out)"
+        )
     budgets = [int(c["steps"][-1]) for c in tiers.values()]
     if budgets and max(budgets) > 10 * min(budgets):
         ax.set_xscale("log")
