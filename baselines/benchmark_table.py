@@ -215,7 +215,8 @@ def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None =
 def figure_text(x: dict | None) -> str:
     if x is None:
         return ""
-    return f"{x['iqm']:.3g} ({x['low']:.3g} to {x['high']:.3g})"
+    iqm, low, high = (0.0 if abs(x[k]) < 1e-12 else x[k] for k in ("iqm", "low", "high"))
+    return f"{iqm:.3g} ({low:.3g} to {high:.3g})"
 
 
 def ppo_cell(row: dict, seeds: int) -> str:
