@@ -1,5 +1,6 @@
-"""The benchmark: random play, each task's scripted reference solver and shared-parameter
-PPO on every shipped scenario and task stream, seed by seed, one small JSON file per seed.
+"""The benchmark: random play, open-loop play, each task's scripted reference solver and
+shared-parameter PPO (in tiers of budget) on every shipped scenario and task stream, seed
+by seed, one small JSON file per seed.
 
     python -m baselines.benchmark                        # the smoke tier: all not yet done
     python -m baselines.benchmark --tier standard        # 1M agent-steps x 5 seeds

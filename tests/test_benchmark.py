@@ -379,6 +379,11 @@ def test_the_shipped_settings_name_every_tier_and_configuration():
     assert config.tier("certificate").default.budget == 10**7
     coop = config.task("coop_carry", "standard")
     assert coop.ppo["team_reward"] is True and "curriculum" in coop.name
+    from baselines.benchmark import list_tasks
+
+    shipped = {name for name, _ in list_tasks()}
+    for tier in config.tiers.values():
+        assert set(tier.tasks) | set(tier.only or []) <= shipped
 
 
 def test_open_loop_play_ignores_what_it_sees_and_keeps_the_best_schedule():
