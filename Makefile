@@ -198,11 +198,15 @@ reproduce-multi: $(STAMP)
 	$(BIN)/python -m baselines.plot $(RUNS)/ppo/fruits_poisons_multi --labels "PPO (shared parameters)" \
 		--by-agent --references 20 --out docs/images/results_fruits_poisons_multi.png
 
-# Random play, the scripted reference and PPO (3 seeds each) on every shipped scenario and
-# stream (baselines/benchmark.yaml: budgets), one JSON per seed under results/benchmark/;
-# done seeds are skipped. benchmark-table rebuilds docs/benchmark.md from the JSON alone.
+# Random, scripted and open-loop play and PPO on every shipped scenario and stream, one JSON
+# per seed under results/benchmark/; done seeds are skipped, so it resumes. PPO's budgets and
+# seeds come from the tier (baselines/benchmark.yaml): TIER=smoke (100k x 3 seeds, the
+# default), standard (1M x 5) or certificate (10M x 3, its listed tasks); hours of CPU
+# beyond smoke. benchmark-table rebuilds docs/benchmark.md, the figures and each scenario's
+# learning curve (docs/images/curves/) from the JSON alone.
+TIER ?= smoke
 benchmark: $(STAMP)
-	nice -n 10 $(BIN)/python -m baselines.benchmark
+	nice -n 10 $(BIN)/python -m baselines.benchmark --tier $(TIER)
 	$(MAKE) benchmark-table
 
 benchmark-table: $(STAMP)

@@ -1,12 +1,14 @@
-"""The benchmark: random play, each task's scripted reference solver and shared-parameter
-PPO on every shipped scenario and task stream, seed by seed, one small JSON file per seed.
+"""The benchmark: random play, open-loop play, each task's scripted reference solver and
+shared-parameter PPO (in tiers of budget) on every shipped scenario and task stream, seed
+by seed, one small JSON file per seed.
 
-    python -m baselines.benchmark                        # all that is not yet done
-    python -m baselines.benchmark --methods random scripted
+    python -m baselines.benchmark                        # the smoke tier: all not yet done
+    python -m baselines.benchmark --tier standard        # 1M agent-steps x 5 seeds
+    python -m baselines.benchmark --methods random scripted open_loop
     python -m baselines.benchmark --only fruits_poisons coop_carry --methods ppo
 
-``make benchmark`` runs it, then ``python -m baselines.benchmark_table``, which writes
-docs/benchmark.md from the JSON files alone.
+``make benchmark [TIER=standard]`` runs it, then ``python -m baselines.benchmark_table``,
+which writes docs/benchmark.md from the JSON files alone.
 
 A task is a shipped scenario (``flatland_ma.list_scenarios()``) or a shipped stream
 (``scenarios/streams/``). Each method plays it on the same held-out episodes:
@@ -22,25 +24,38 @@ A task is a shipped scenario (``flatland_ma.list_scenarios()``) or a shipped str
 
 Methods: ``random`` (every agent uniform at random, seeded by the seed), ``scripted`` (the
 reference solver ``flatland_ma.scores_header.solver_names`` gives each agent, seeded by the
-seed) and ``ppo``: ``baselines.ppo`` on a scenario, ``baselines.lifelong --method
-finetune`` through a stream of tasks and ``baselines.never_ending`` through the never-ending
-one, for the task's budget of agent-steps (``baselines/benchmark.yaml``), then the final
-checkpoint is scored (a stream of tasks: by its learner's last evaluation block).
+seed), ``open_loop`` (actions by the time step alone: the best of a few random schedules on
+training episodes, ``baselines.open_loop``) and ``ppo``: ``baselines.ppo`` on a scenario,
+``baselines.lifelong --method finetune`` through a stream of tasks and
+``baselines.never_ending`` through the never-ending one, for the task's budget of
+agent-steps (``baselines/benchmark.yaml``), then the final checkpoint is scored (a stream
+of tasks: by its learner's last evaluation block).
 
-Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (the score, each episode's,
-the budget, agent-steps, CPU and wall seconds, the version of every scenario the task
-plays, package versions, commit, machine load); a seed whose file exists is skipped, so an
-interrupted run resumes. Results of different versions of a task never mix: a seed file of
-another version than the task's today stops the run (``VersionMismatch``), and
-``baselines.benchmark_table`` refuses a task whose files disagree. A file written before
-tasks carried versions counts as version 0 of every scenario it plays. Checkpoints and logs go to
-``<runs>/<task>/`` (not committed).
+PPO runs in tiers (``--tier``; ``baselines/benchmark.yaml``): ``smoke`` (100k agent-steps
+x 3 seeds, regressions only), ``standard`` (1M x 5 seeds, every task in the best shipped
+configuration for it, each named) and ``certificate`` (10M x 3 seeds, the tasks the
+settings list). Random, scripted and open-loop play do not depend on a budget: their
+results serve every tier.
+
+Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (a tier other than smoke:
+``<out>/<task>/ppo/<tier>/seed_<k>.json``): the score, each episode's, the budget,
+agent-steps, the configuration's name and options, CPU and wall seconds, a calibration
+(a fixed matrix product timed at the start of the run, ``baselines.bench_learn``), the
+version of every scenario the task plays, package versions, commit and the machine's
+load; PPO on a scenario also its learning curve (``baselines.benchmark_curves``). A seed
+whose file exists is skipped, so an interrupted run resumes. Results of different
+versions of a task never mix: a seed file of another version than the task's today stops
+the run (``VersionMismatch``), and ``baselines.benchmark_table`` refuses a task whose
+files disagree. A file written before tasks carried versions counts as version 0 of every
+scenario it plays. Checkpoints and logs go to ``<runs>/<task>/`` (a tier other than smoke:
+``<runs>/<tier>/<task>/``; not committed).
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import json
 import os
 import platform
@@ -52,7 +67,15 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.benchmark_config import METHODS, BenchmarkConfig, TaskConfig, load_config
+from baselines.benchmark_config import (
+    LEARNED,
+    METHODS,
+    TIERS,
+    BenchmarkConfig,
+    TaskConfig,
+    curriculum_path,
+    load_config,
+)
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.policies.named import make_policy
 from flatland_ma.policies.rollout import play_episode
@@ -96,6 +119,8 @@ def policy_names(env: FlatlandParallelEnv, method: str, checkpoint: str = "") ->
         return dict.fromkeys(env.possible_agents, "random")
     if method == "scripted":
         return solver_names(env)
+    if method == "open_loop":
+        checkpoint = "open_loop"
     return {a: checkpoint if a in scored else "random" for a in env.possible_agents}
 
 
@@ -125,12 +150,40 @@ def play_episodes(env: FlatlandParallelEnv, names: dict[str, str], seeds, seed: 
     policies = {
         a: make_policy(names[a], env, a, seed=seed * 1000 + agents.index(a)) for a in agents
     }
+    return play_policies(env, policies, seeds)
+
+
+def play_policies(env: FlatlandParallelEnv, policies: dict, seeds) -> list[float]:
+    """The score of each episode (reset with each of ``seeds``), ``policies[agent]``
+    acting for each agent."""
     scored = scored_agents(env)
     out = []
     for s in seeds:
         totals, _ = play_episode(env, policies, int(s))
         out.append(float(np.mean([totals[a] for a in scored])))
     return out
+
+
+def play_open_loop(env: FlatlandParallelEnv, seeds, seed: int, config, first_seed: int):
+    """Open-loop play (``baselines.open_loop``): the scored agents' best schedule (drawn
+    from ``seed``) on training episodes from ``first_seed``, the others at random; (its
+    score on each of ``seeds``, the search's record)."""
+    from baselines.open_loop import OpenLoopPolicy, best_of
+
+    agents = env.possible_agents
+    names = policy_names(env, "open_loop")
+    others = {
+        a: make_policy(names[a], env, a, seed=seed * 1000 + agents.index(a))
+        for a in agents
+        if names[a] != "open_loop"
+    }
+    planned = [a for a in agents if names[a] == "open_loop"]
+
+    def play(policies: dict, episode_seeds) -> list[float]:
+        return play_policies(env, {**others, **policies}, episode_seeds)
+
+    plan, search = best_of(env, planned, play, config.open_loop, seed, first_seed)
+    return play({a: OpenLoopPolicy(s) for a, s in plan.items()}, seeds), search
 
 
 def scenario_seeds(config: BenchmarkConfig) -> list[int]:
@@ -152,7 +205,8 @@ def stream_parts(name: str, config: BenchmarkConfig):
 
 
 def play_task(name: str, kind: str, method: str, seed: int, config, checkpoint: str = ""):
-    """(score, each episode's score, each stream task's score) of ``method`` on a task."""
+    """(score, each episode's score, each stream task's score) of ``method`` on a task
+    (not ``open_loop``: ``play_open_loop_task``)."""
     if kind == "scenario":
         env = FlatlandParallelEnv(name)
         try:
@@ -174,6 +228,34 @@ def play_task(name: str, kind: str, method: str, seed: int, config, checkpoint: 
     return float(np.mean(list(parts.values()))), episodes, parts
 
 
+def play_open_loop_task(name: str, kind: str, seed: int, config):
+    """(score, each episode's score, each stream task's score, each search's record) of
+    open-loop play on a task: a stream's tasks each searched on their own episodes."""
+    from baselines.open_loop import OPEN_LOOP_SEED
+
+    if kind == "scenario":
+        env = FlatlandParallelEnv(name)
+        try:
+            episodes, search = play_open_loop(
+                env, scenario_seeds(config), seed, config, OPEN_LOOP_SEED
+            )
+        finally:
+            env.close()
+        return float(np.mean(episodes)), episodes, {}, {name: search}
+    parts: dict[str, float] = {}
+    searches: dict[str, dict] = {}
+    episodes = []
+    for i, (label, env, seeds) in enumerate(stream_parts(name, config)):
+        try:
+            first = OPEN_LOOP_SEED + STREAM_EVALUATION_STRIDE * i
+            scores, searches[label] = play_open_loop(env, seeds, seed, config, first)
+        finally:
+            env.close()
+        parts[label] = float(np.mean(scores))
+        episodes += scores
+    return float(np.mean(list(parts.values()))), episodes, parts, searches
+
+
 # -- PPO ---------------------------------------------------------------------------------
 
 
@@ -183,10 +265,24 @@ def train_scenario(name: str, seed: int, task: TaskConfig, runs: Path) -> tuple[
     from flatland_ma.policies.checkpoint import SUFFIX
 
     log = runs / name / "ppo" / f"seed_{seed}.csv"
-    options = {"tensorboard": False, "checkpoint_every": 0, **task.ppo}
-    args = ppo.Args(scenario=name, seed=seed, total_timesteps=task.budget, csv=str(log), **options)
+    args = ppo_args(name, seed, task, log)
     summary = ppo.main(args)
     return str(log.with_suffix(SUFFIX)), int(summary["steps"])
+
+
+def ppo_args(name: str, seed: int, task: TaskConfig, log: Path):
+    """``baselines.ppo``'s arguments for a task: its options, the budget and the log. A
+    preset's settings are applied here, beneath the task's own options, and the budget
+    then set (a preset that names a length of run would otherwise replace a budget equal
+    to the learner's default); a curriculum's file is found from the checkout."""
+    from baselines import ppo
+    from baselines.ppo_presets import with_preset
+
+    options = {"tensorboard": False, "checkpoint_every": 0, **task.ppo}
+    if options.get("curriculum"):
+        options["curriculum"] = str(curriculum_path(options["curriculum"]))
+    args = with_preset(ppo.Args(scenario=name, seed=seed, csv=str(log), **options))
+    return dataclasses.replace(args, preset="", total_timesteps=task.budget)
 
 
 def train_stream(name: str, seed: int, task: TaskConfig, runs: Path, config) -> tuple[dict, int]:
@@ -304,15 +400,32 @@ def machine() -> dict:
 
 
 def cpu_seconds() -> float:
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
+    """CPU time of this process (every thread) and of its finished children."""
+    own, children = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
-def run_one(name: str, kind: str, method: str, seed: int, config, runs: Path) -> dict:
-    """Play (and for PPO first train) one seed of one method on one task: its record."""
-    task = config.task(name)
+def calibrate() -> dict:
+    """The machine's speed at the start of a run: ``baselines.bench_learn.calibration``'s
+    fixed matrix products, per CPU-second of this thread."""
+    from baselines.bench_learn import calibration
+
+    return {"matmuls_256_per_cpu_second": round(calibration(), 1)}
+
+
+def run_one(
+    name: str, kind: str, method: str, seed: int, config, runs: Path, tier: str = "smoke"
+) -> dict:
+    """Play (and for PPO first train) one seed of one method on one task: its record
+    (PPO's in ``tier``, training under ``runs``)."""
+    task = config.task(name, tier)
+    calibration = calibrate()
     load_before, cpu, wall = machine(), cpu_seconds(), time.perf_counter()
     budget, steps, checkpoint, learnt = 0, 0, "", None
+    search = None
     if method == "ppo" and kind == "scenario":
         budget = task.budget
         checkpoint, steps = train_scenario(name, seed, task, runs)
@@ -326,6 +439,8 @@ def run_one(name: str, kind: str, method: str, seed: int, config, runs: Path) ->
         budget = task.budget
         learnt, steps = train_stream(name, seed, task, runs, config)
         score, episodes, parts = float(np.mean(list(learnt.values()))), [], learnt
+    elif method == "open_loop":
+        score, episodes, parts, search = play_open_loop_task(name, kind, seed, config)
     else:
         score, episodes, parts = play_task(name, kind, method, seed, config, checkpoint)
     record = {
@@ -347,11 +462,38 @@ def run_one(name: str, kind: str, method: str, seed: int, config, runs: Path) ->
         "commit": commit(),
         "machine": {"before": load_before, "after": machine()},
     }
+    record.update(run_fields(method, kind, tier, task, calibration, runs / name, seed, search))
     return record
 
 
-def result_path(out: Path, name: str, method: str, seed: int) -> Path:
+def run_fields(method, kind, tier, task, calibration, runs: Path, seed: int, search) -> dict:
+    """A record's fields beyond the score: the machine's calibration; PPO's tier,
+    configuration and (on a scenario) learning curve from its log under ``runs``; the
+    open-loop search."""
+    from baselines.benchmark_curves import seed_curve
+
+    out: dict = {"calibration": calibration}
+    if method in LEARNED:
+        out["tier"] = tier
+        out["configuration"] = task.name
+    if method == "ppo" and kind == "scenario":
+        out["curve"] = seed_curve(runs / "ppo" / f"seed_{seed}.csv", task.budget)
+    if search is not None:
+        out["open_loop"] = search
+    return out
+
+
+def result_path(out: Path, name: str, method: str, seed: int, tier: str = "smoke") -> Path:
+    """A seed's result: ``<out>/<task>/<method>/seed_<k>.json``, or for a learned method
+    in a tier other than smoke ``<out>/<task>/<method>/<tier>/seed_<k>.json``."""
+    if method in LEARNED and tier != "smoke":
+        return out / name / method / tier / f"seed_{seed}.json"
     return out / name / method / f"seed_{seed}.json"
+
+
+def tier_runs(runs: Path, tier: str) -> Path:
+    """Where a tier's checkpoints and logs go: ``runs`` for smoke, ``runs/<tier>`` else."""
+    return runs if tier == "smoke" else runs / tier
 
 
 def write_record(path: Path, record: dict) -> None:
@@ -374,33 +516,47 @@ def never_ending(name: str) -> bool:
     return bool(load_stream(name).never_ending)
 
 
-def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS, hours: float = 0.0):
+def run(
+    config,
+    tasks,
+    methods,
+    out: Path = OUT,
+    runs: Path = RUNS,
+    hours: float = 0.0,
+    tier: str = "smoke",
+):
     """Every method (in order) on every task, every seed not yet written; the files written.
-    With ``hours``, no seed is started after that many hours (a bounded session).
+    PPO runs ``tier``'s seeds on its tasks; the other methods serve every tier. With
+    ``hours``, no seed is started after that many hours (a bounded session).
     ``VersionMismatch`` before anything runs if a task's results in ``out`` were made on
     other versions of its scenarios than today's."""
     written: list[Path] = []
     stop = time.monotonic() + hours * 3600.0 if hours else float("inf")
+    level = config.tier(tier)
     for name, kind in tasks:  # before anything runs: no result of another version beside
         today = task_versions(name, kind)
-        for path in sorted((out / name).glob("*/seed_*.json")):
+        for path in sorted((out / name).rglob("seed_*.json")):
             check_versions(path, today)
     for method in methods:
         for name, kind in tasks:
-            if method == "ppo" and not ppo_possible(name, kind):
+            if method == "ppo" and not (ppo_possible(name, kind) and level.runs(name)):
                 continue
-            seeds = config.seeds
+            seeds = level.seeds if method in LEARNED else config.seeds
             if method == "scripted":
                 seeds = scripted_seeds(name, kind, config)
             for seed in range(seeds):
-                path = result_path(out, name, method, seed)
+                path = result_path(out, name, method, seed, tier)
                 if path.exists():
                     continue
                 if time.monotonic() > stop:
                     print("benchmark: out of time; run it again to go on", flush=True)
                     return written
-                print(f"benchmark: {name} {method} seed {seed}", flush=True)
-                record = run_one(name, kind, method, seed, config, runs)
+                print(
+                    f"benchmark: {name} {method} seed {seed}"
+                    + (f" ({tier})" if method in LEARNED else ""),
+                    flush=True,
+                )
+                record = run_one(name, kind, method, seed, config, tier_runs(runs, tier), tier)
                 write_record(path, record)
                 written.append(path)
                 print(
@@ -414,6 +570,9 @@ def run(config, tasks, methods, out: Path = OUT, runs: Path = RUNS, hours: float
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--config", default=str(ROOT / "baselines" / "benchmark.yaml"))
+    parser.add_argument(
+        "--tier", choices=TIERS, default="smoke", help="PPO's budgets and seeds (default smoke)"
+    )
     parser.add_argument("--only", nargs="+", default=None, help="these tasks only")
     parser.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
     parser.add_argument("--out", default=str(OUT), help="where the JSON results go")
@@ -430,10 +589,17 @@ def main(argv: list[str] | None = None) -> None:
             parser.error(f"no shipped scenario or stream {', '.join(unknown)}")
         tasks = [t for t in tasks if t[0] in args.only]
     config = load_config(args.config)
-    strangers = sorted(set(config.tasks) - {name for name, _ in list_tasks()})
-    if strangers:
-        parser.error(f"{args.config}: tasks: no shipped scenario or stream {', '.join(strangers)}")
-    run(config, tasks, args.methods, Path(args.out), Path(args.runs), args.hours)
+    if args.tier not in config.tiers:
+        parser.error(f"{args.config}: tiers: no tier {args.tier}")
+    shipped = {name for name, _ in list_tasks()}
+    for name, level in config.tiers.items():
+        strangers = sorted((set(level.tasks) | set(level.only or [])) - shipped)
+        if strangers:
+            parser.error(
+                f"{args.config}: tiers.{name}: no shipped scenario or stream "
+                + ", ".join(strangers)
+            )
+    run(config, tasks, args.methods, Path(args.out), Path(args.runs), args.hours, args.tier)
 
 
 if __name__ == "__main__":

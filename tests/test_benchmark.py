@@ -1,6 +1,8 @@
-"""The benchmark's machinery (baselines/benchmark*.py): a tiny run that resumes, the table
-rebuilt from its JSON, normalisation and IQM against hand-computed values, and the
-committed page up to date with the committed JSON."""
+"""The benchmark's machinery (baselines/benchmark*.py, baselines/open_loop.py): a tiny run
+that resumes, tiers kept apart, the calibration and learning curve recorded, open-loop play
+searched and scored, the table's tier sections and curve figures rebuilt from JSON,
+normalisation and IQM against hand-computed values, and the committed page up to date with
+the committed JSON."""
 
 from __future__ import annotations
 
@@ -26,11 +28,16 @@ from baselines.levels import LEVELS_OUT, read_levels, record, render_levels  # n
 TASK = [("fruits_poisons", "scenario")]
 
 
+TINY_PPO = "{num_envs: 1, num_steps: 16, num_minibatches: 2, update_epochs: 1, hidden: 16}"
+
+
 def tiny_config(path: Path) -> BenchmarkConfig:
     path.write_text(
         "seeds: 2\nepisodes: 1\neval_seed: 100000\n"
-        "default: {budget: 32, ppo: {num_envs: 1, num_steps: 16, num_minibatches: 2,"
-        " update_epochs: 1, hidden: 16}}\n",
+        "open_loop: {candidates: 3, episodes: 1, hold: 4}\n"
+        "tiers:\n"
+        f"  smoke: {{seeds: 2, default: {{budget: 32, name: tiny, ppo: {TINY_PPO}}}}}\n"
+        f"  standard: {{seeds: 1, default: {{budget: 64, name: tiny-1, ppo: {TINY_PPO}}}}}\n",
         encoding="utf-8",
     )
     return load_config(path)
@@ -53,8 +60,14 @@ def test_a_tiny_run_writes_every_seed_then_resumes_skipping_done_ones(tmp_path):
     assert ppo["cpu_seconds"] > 0 and ppo["wall_seconds"] > 0
     assert ppo["versions"]["torch"] and ppo["commit"] and "load_1min" in ppo["machine"]["after"]
     assert (runs / "fruits_poisons" / "ppo" / "seed_1.safetensors").is_file()
+    assert ppo["tier"] == "smoke" and ppo["configuration"] == "tiny"
+    assert ppo["calibration"]["matmuls_256_per_cpu_second"] > 0
+    # 32 agent-steps end no 1000-step episode: a curve of 50 checkpoints without a point.
+    assert ppo["curve"]["steps"][0] == 1 and ppo["curve"]["steps"][-1] == 32
+    assert ppo["curve"]["returns"] == [None] * 50
     scripted = json.loads(result_path(out, "fruits_poisons", "scripted", 0).read_text())
     assert scripted["budget"] == 0 and scripted["agent_steps"] == 0
+    assert "tier" not in scripted and scripted["calibration"]["matmuls_256_per_cpu_second"] > 0
 
     # Resumed: nothing is redone; a lost seed is the only one run again.
     stamps = {p: p.stat().st_mtime_ns for p in written}
@@ -67,16 +80,25 @@ def test_a_tiny_run_writes_every_seed_then_resumes_skipping_done_ones(tmp_path):
 
     # The table reads what was written.
     summary = build(out, config, TASK)
-    (row,) = summary["rows"]
+    (row,) = summary["tiers"]["smoke"]["rows"]
     assert row["ppo"]["seeds"] == 2 and row["random"]["seeds"] == 2
     assert row["scripted"]["seeds"] == 1 and row["normalised"] is not None
     page = render(summary)
-    assert "`fruits_poisons`" in page and "not yet run" not in page.split("## Streams")[0]
+    smoke = page.split("## Smoke")[1].split("## Standard")[0]
+    assert "`fruits_poisons`" in smoke and "not yet run" not in smoke.split("### Streams")[0]
 
 
-def made_up(out: Path, task: str, method: str, scores, budget: int = 0) -> None:
+def made_up(
+    out: Path,
+    task: str,
+    method: str,
+    scores,
+    budget: int = 0,
+    tier: str = "smoke",
+    curves: list | None = None,
+) -> None:
     for k, score in enumerate(scores):
-        record = {
+        record: dict = {
             "task": task,
             "kind": "scenario",
             "method": method,
@@ -88,7 +110,15 @@ def made_up(out: Path, task: str, method: str, scores, budget: int = 0) -> None:
             "commit": "abc1234",
             "versions": {"python": "3"},
         }
-        write_record(result_path(out, task, method, k), record)
+        if method == "ppo" and tier != "smoke":
+            record.update(
+                tier=tier,
+                configuration="made up",
+                calibration={"matmuls_256_per_cpu_second": 1234.0 + k},
+            )
+        if curves is not None:
+            record["curve"] = curves[k]
+        write_record(result_path(out, task, method, k, tier), record)
 
 
 def test_normalisation_iqm_and_verdicts_on_made_up_numbers(tmp_path):
@@ -102,7 +132,8 @@ def test_normalisation_iqm_and_verdicts_on_made_up_numbers(tmp_path):
     made_up(out, "maze_goal", "ppo", [9.0, 9.0], budget=500)
     tasks = [("fruits_poisons", "scenario"), ("maze_goal", "scenario"), ("key_door", "scenario")]
     summary = build(out, config, tasks)
-    fruits, maze, key = summary["rows"]
+    smoke = summary["tiers"]["smoke"]
+    fruits, maze, key = smoke["rows"]
 
     # (score - 2) / (12 - 2): 0.5, 1, 1.5, 0; IQM = mean of the middle two = 0.75.
     assert fruits["normalised_seeds"] == pytest.approx([0.5, 1.0, 1.5, 0.0])
@@ -111,21 +142,21 @@ def test_normalisation_iqm_and_verdicts_on_made_up_numbers(tmp_path):
     assert fruits["random"]["iqm"] == pytest.approx(2.0)
     low, high = fruits["normalised"]["low"], fruits["normalised"]["high"]
     assert 0.0 <= low <= 0.75 <= high <= 1.5
-    assert fruits["budget"] == 500 and fruits["cpu_seconds"] == 100.0
+    assert fruits["budget"] == 500 and fruits["cpu_seconds"] == 40.0  # PPO's 4 seeds
     assert fruits["verdict"] == "close to scripted"  # 0.5 <= 0.75 < 1 and high reaches 1
 
     assert maze["scale"]["ok"] is False and maze["normalised"] is None and maze["verdict"] == ""
     assert key["ppo"] is None and key["budget"] == 32  # the config's, for a task not yet run
     # Only the task with a scale counts in the aggregate: its pooled IQM is the task's.
-    assert summary["aggregate"]["tasks"] == 1
-    assert summary["aggregate"]["iqm"] == pytest.approx(0.75)
+    assert smoke["aggregate"]["tasks"] == 1
+    assert smoke["aggregate"]["iqm"] == pytest.approx(0.75)
     assert summary["cpu_seconds"]["ppo"] == 60.0
-    assert summary["ppo_rate"] == 50.0  # 6 seeds of 500 agent-steps in 60 CPU seconds
-    assert summary["planned_steps"] == (500 + 500 + 32) * 2  # budgets (the config's 2 seeds)
+    assert smoke["ppo_rate"] == 50.0  # 6 seeds of 500 agent-steps in 60 CPU seconds
+    assert smoke["planned_steps"] == (500 + 500 + 32) * 2  # budgets (the tier's 2 seeds)
 
     page = render(summary)
     assert "no scale: scripted does not beat random" in page
-    assert "`key_door`" in page.split("## Not yet run")[1]
+    assert "`key_door`" in page.split("### Not yet run (smoke)")[1].split("##")[0]
     assert "0.75" in page
 
     assert verdict({"iqm": 1.2, "low": 1.05, "high": 1.4}) == "beyond scripted"
@@ -145,16 +176,30 @@ def test_the_aggregate_pools_the_tasks_seeds(tmp_path):
     tasks = [("fruits_poisons", "scenario"), ("maze_goal", "scenario")]
     summary = build(out, config, tasks)
     # Normalised: 0, 1 and 1, 1.5; their IQM is the mean of the middle two, 1 and 1.
-    assert summary["aggregate"]["iqm"] == pytest.approx(float(np.mean([1.0, 1.0])))
+    assert summary["tiers"]["smoke"]["aggregate"]["iqm"] == pytest.approx(
+        float(np.mean([1.0, 1.0]))
+    )
 
 
 @pytest.mark.parametrize(
     "text, key",
     [
-        ("default: {budget: 10}\nbogus: 1\n", "bogus"),
-        ("default: {budget: ten}\n", "default.budget"),
-        ("default: {budget: 10, ppo: {no_such_option: 1}}\n", "no_such_option"),
-        ("default: {budget: 10, ppo: {scenario: coop_carry}}\n", "scenario"),
+        ("tiers: {smoke: {default: {budget: 10}}}\nbogus: 1\n", "bogus"),
+        ("tiers: {smoke: {default: {budget: ten}}}\n", "tiers.smoke.default.budget"),
+        ("tiers: {smoke: {default: {budget: 10, ppo: {no_such_option: 1}}}}\n", "no_such"),
+        ("tiers: {smoke: {default: {budget: 10, ppo: {scenario: coop_carry}}}}\n", "scenario"),
+        ("tiers: {standard: {default: {budget: 10}}}\n", "tiers.smoke: required"),
+        ("tiers: {huge: {default: {budget: 10}}}\n", "tiers.huge"),
+        ("tiers: {smoke: {default: {budget: 10, ppo: {preset: nope}}}}\n", "preset"),
+        (
+            "tiers: {smoke: {default: {budget: 10}, tasks: {coop_carry: {ppo: {shaping: 3.0}}}}}\n",
+            "tasks.coop_carry.name",
+        ),
+        (
+            "tiers: {smoke: {default: {budget: 10, ppo: "
+            "{curriculum: baselines/curricula/coop_carry.yaml}}}}\n",
+            "add up to 1,000,000 agent-steps, not the budget's 10",
+        ),
     ],
 )
 def test_a_bad_config_fails_naming_the_key(tmp_path, text, key):
@@ -256,3 +301,227 @@ def test_a_level_refuses_a_run_of_another_task(tmp_path):
     log = _fake_run(tmp_path, [1.0] * 60, wall=10.0)
     with pytest.raises(ValueError, match="not 'coop_carry'"):
         record("coop_carry_half", log, tmp_path / "levels")
+
+
+# -- tiers, open-loop play, calibration and curves ---------------------------------------
+
+
+def test_tiers_are_kept_apart_and_each_resumes(tmp_path):
+    config = tiny_config(tmp_path / "bench.yaml")
+    out, runs = tmp_path / "results", tmp_path / "runs"
+    smoke = run(config, TASK, ["random", "ppo"], out, runs)
+    standard = run(config, TASK, ["random", "ppo"], out, runs, tier="standard")
+    # Random play serves every tier: the standard tier adds only its PPO seed, apart.
+    assert [p.relative_to(out).as_posix() for p in standard] == [
+        "fruits_poisons/ppo/standard/seed_0.json"
+    ]
+    assert len(smoke) == 4
+    record = json.loads(standard[0].read_text())
+    assert record["tier"] == "standard" and record["configuration"] == "tiny-1"
+    assert record["budget"] == 64 and record["agent_steps"] == 64
+    assert record["calibration"]["matmuls_256_per_cpu_second"] > 0
+    assert len(record["curve"]["steps"]) == 50 and record["curve"]["steps"][-1] == 64
+    assert (runs / "standard" / "fruits_poisons" / "ppo" / "seed_0.safetensors").is_file()
+    assert json.loads(result_path(out, "fruits_poisons", "ppo", 0).read_text())["budget"] == 32
+    assert run(config, TASK, ["random", "ppo"], out, runs, tier="standard") == []
+    assert run(config, TASK, ["random", "ppo"], out, runs) == []
+    # Each tier reads its own PPO seeds and the shared random ones.
+    summary = build(out, config, TASK)
+    smoke_row = summary["tiers"]["smoke"]["rows"][0]
+    standard_row = summary["tiers"]["standard"]["rows"][0]
+    assert smoke_row["ppo"]["seeds"] == 2 and standard_row["ppo"]["seeds"] == 1
+    assert smoke_row["budget"] == 32 and standard_row["budget"] == 64
+    assert standard_row["random"]["seeds"] == 2 and standard_row["configuration"] == "tiny-1"
+
+
+def test_a_tier_with_a_task_list_trains_only_those(tmp_path):
+    path = tmp_path / "bench.yaml"
+    path.write_text(
+        "seeds: 1\nepisodes: 1\ntiers:\n"
+        f"  smoke: {{default: {{budget: 32, ppo: {TINY_PPO}}}}}\n"
+        "  certificate: {seeds: 1, only: [maze_goal],"
+        f" default: {{budget: 32, ppo: {TINY_PPO}}}}}\n",
+        encoding="utf-8",
+    )
+    config = load_config(path)
+    tasks = [("fruits_poisons", "scenario"), ("maze_goal", "scenario")]
+    written = run(
+        config, tasks, ["ppo"], tmp_path / "results", tmp_path / "runs", tier="certificate"
+    )
+    assert [p.relative_to(tmp_path / "results").as_posix() for p in written] == [
+        "maze_goal/ppo/certificate/seed_0.json"
+    ]
+
+
+def test_a_preset_does_not_replace_the_budget(tmp_path):
+    from baselines.benchmark import ppo_args
+    from baselines.benchmark_config import TaskConfig
+
+    task = TaskConfig(budget=1_000_000, name="p", ppo={"preset": "fruits_poisons"})
+    args = ppo_args("fruits_poisons", 3, task, tmp_path / "seed_3.csv")
+    # The preset asks for 2.6M agent-steps and 16 worlds; the budget (the learner's default
+    # length, which a preset would otherwise fill) stays.
+    assert args.total_timesteps == 1_000_000 and args.num_envs == 16 and args.ent_coef == 0.03
+    assert args.preset == "" and args.seed == 3
+    task = TaskConfig(
+        budget=1_000_000, name="c", ppo={"curriculum": "baselines/curricula/coop_carry.yaml"}
+    )
+    assert Path(ppo_args("coop_carry", 0, task, tmp_path / "s.csv").curriculum).is_file()
+
+
+def test_the_shipped_settings_name_every_tier_and_configuration():
+    config = load_config(ROOT / "baselines" / "benchmark.yaml")
+    assert list(config.tiers) == ["smoke", "standard", "certificate"]
+    assert config.task("fruits_poisons").budget == 200_000  # smoke, as before the tiers
+    assert (
+        config.tier("standard").seeds == 5 and config.task("maze_goal", "standard").budget == 10**6
+    )
+    assert config.tier("certificate").default.budget == 10**7
+    coop = config.task("coop_carry", "standard")
+    assert coop.ppo["team_reward"] is True and "curriculum" in coop.name
+    from baselines.benchmark import list_tasks
+
+    shipped = {name for name, _ in list_tasks()}
+    for tier in config.tiers.values():
+        assert set(tier.tasks) | set(tier.only or []) <= shipped
+
+
+def test_open_loop_play_ignores_what_it_sees_and_keeps_the_best_schedule():
+    import gymnasium
+
+    from baselines.open_loop import OpenLoopPolicy, best_of, schedule
+
+    rng = np.random.default_rng(0)
+    actions = schedule(gymnasium.spaces.Discrete(5), 200, 4, rng)
+    assert len(actions) == 200 and set(actions) <= set(range(5))
+    runs = [len(list(g)) for _, g in __import__("itertools").groupby(actions)]
+    assert max(runs) >= 2  # actions are held
+    policy = OpenLoopPolicy(actions)
+    first = [policy.act(np.full(3, k)) for k in range(10)]
+    policy.reset()
+    assert [policy.act(None) for _ in range(10)] == first == actions[:10]
+
+    class Env:
+        step_limit = 20
+
+        def action_space(self, agent):
+            return gymnasium.spaces.Discrete(3)
+
+    class Config:
+        candidates, episodes, hold = 5, 2, 3
+
+    seen = []
+
+    def play(policies, seeds):  # a made-up task: the score is the first action taken
+        seen.append(list(seeds))
+        return [float(policies["a"].act(None)) + s for s in range(len(seeds))]
+
+    plan, search = best_of(Env(), ["a"], play, Config(), seed=7, first_seed=500)
+    assert seen == [[500, 501]] * 5 and len(search["training_scores"]) == 5
+    assert search["training_score"] == max(search["training_scores"])
+    assert plan["a"][0] + 0.5 == search["training_score"]
+    again, _ = best_of(Env(), ["a"], play, Config(), seed=7, first_seed=500)
+    assert again == plan  # drawn from the seed alone
+
+
+def test_open_loop_is_run_and_scored_like_the_other_methods(tmp_path):
+    config = tiny_config(tmp_path / "bench.yaml")
+    out = tmp_path / "results"
+    written = run(config, [("signal_maps", "scenario")], ["open_loop"], out, tmp_path / "runs")
+    assert [p.name for p in written] == ["seed_0.json", "seed_1.json"]
+    record = json.loads(written[0].read_text())
+    search = record["open_loop"]["signal_maps"]
+    assert search["candidates"] == 3 and search["training_episodes"] == 1
+    assert len(record["episodes"]) == 1 and record["score"] == record["episodes"][0]
+    assert "tier" not in record and record["budget"] == 0
+
+
+def test_a_seed_curve_averages_the_episodes_of_each_checkpoint(tmp_path):
+    from baselines.benchmark_curves import seed_curve
+
+    log = tmp_path / "seed_0.csv"
+    rows = ["seed,episode,step,agent,return,wall_time"]
+    # Two agents per episode; episodes end at steps 10, 20, 45 and 100.
+    for episode, step, returns in (
+        (0, 10, (1, 3)),
+        (1, 20, (4, 4)),
+        (2, 45, (0, 2)),
+        (3, 100, (9, 9)),
+    ):
+        rows += [f"0,{episode},{step},agent_{a},{r},1.0" for a, r in enumerate(returns)]
+    log.write_text("\n".join(rows) + "\n")
+    curve = seed_curve(log, budget=100, points=4)
+    assert curve["steps"] == [25, 50, 75, 100]
+    # (2 + 4) / 2 in the first quarter, 1 in the second, none in the third, 9 at the end.
+    assert curve["returns"] == [3.0, 1.0, None, 9.0]
+
+
+def test_a_task_curve_is_the_iqm_over_seeds_with_its_interval():
+    from baselines.benchmark_curves import task_curve
+
+    curves = [{"steps": [10, 20], "returns": [value, 5.0]} for value in (1.0, 2.0, 3.0, 4.0)] + [
+        {"steps": [10, 20], "returns": [100.0, None]}
+    ]
+    got = task_curve(curves)
+    assert got["seeds"] == [5, 4]
+    assert got["iqm"][0] == pytest.approx(3.0)  # the middle three of 1, 2, 3, 4, 100
+    assert got["low"][0] <= 3.0 <= got["high"][0] and got["high"][0] <= 100.0
+    assert got["iqm"][1] == got["low"][1] == got["high"][1] == 5.0  # every seed alike
+    with pytest.raises(ValueError, match="different checkpoints"):
+        task_curve([{"steps": [1], "returns": [0.0]}, {"steps": [2], "returns": [0.0]}])
+
+
+def test_the_page_has_a_section_per_tier_and_each_scenario_its_curve(tmp_path):
+    from baselines.benchmark_table import write
+
+    config_path = tmp_path / "bench.yaml"
+    tiny_config(config_path)
+    out, docs = tmp_path / "results", tmp_path / "docs"
+    curve = {"steps": [32, 64], "returns": [1.0, 8.0]}
+    made_up(out, "fruits_poisons", "random", [0.0, 2.0, 4.0])
+    made_up(out, "fruits_poisons", "scripted", [12.0])
+    made_up(out, "fruits_poisons", "open_loop", [3.0, 3.5, 4.0])
+    made_up(out, "fruits_poisons", "ppo", [5.0, 6.0], budget=32)
+    made_up(out, "fruits_poisons", "ppo", [11.0, 12.0, 13.0], 64, "standard", [curve] * 3)
+    made_up(out, "maze_goal", "random", [0.0])
+    made_up(out, "maze_goal", "scripted", [10.0])
+    made_up(out, "maze_goal", "open_loop", [6.0, 7.0])
+    made_up(out, "maze_goal", "ppo", [1.0, 2.0], 64, "standard")
+    summary = write(out, config_path, levels=tmp_path / "no_levels", docs=docs)
+    page = (docs / "benchmark.md").read_text()
+    smoke = page.split("## Smoke: 32 agent-steps x 2 seeds")[1].split("## Standard")[0]
+    standard = page.split("## Standard: 64 agent-steps x 1 seeds")[1].split("## Provenance")[0]
+    assert "`maze_goal`" in smoke.split("### Not yet run (smoke)")[1]
+    fruits = next(x for x in standard.splitlines() if x.startswith("| `fruits_poisons` |"))
+    # The configuration the records name, not the settings' (tiny-1, for tasks not yet run).
+    assert (
+        fruits.startswith("| `fruits_poisons` | 12 (11 to 13) |") and "| made up | 64 |" in fruits
+    )
+    # PPO's interval (11 to 13) above open-loop's (3 to 4): beaten; on maze_goal below it.
+    rows = {r["task"]: r for r in summary["tiers"]["standard"]["rows"]}
+    assert rows["fruits_poisons"]["beats_open_loop"] == "yes"
+    assert rows["maze_goal"]["beats_open_loop"] == "no"
+    assert "| **no** |" in standard and "not shown on `maze_goal`" in standard
+    assert "| 1234 |" in standard and "| 1235 |" in standard  # each seed's calibration
+    assert "not recorded" in smoke  # smoke's made-up seeds have none
+    assert (docs / "images" / "benchmark.png").is_file()
+    assert (docs / "images" / "benchmark_standard.png").is_file()
+    assert [p.name for p in summary["curves"]] == ["fruits_poisons.png"]  # the only curves
+    assert (docs / "images" / "curves" / "fruits_poisons.png").stat().st_size > 1000
+    shown = json.loads((out / "summary.json").read_text())
+    assert shown["fruits_poisons"]["tier"] == "standard" and shown["fruits_poisons"]["budget"] == 64
+    assert set(shown["fruits_poisons"]["tiers"]) == {"smoke", "standard"}
+
+
+def test_a_scenario_page_shows_its_curve_only_when_drawn(tmp_path, monkeypatch):
+    import sys
+
+    monkeypatch.syspath_prepend(str(ROOT / "docs" / "_ext"))
+    scenario_page = __import__("scenario_page")
+    monkeypatch.setattr(scenario_page, "DOCS", tmp_path)
+    assert scenario_page.curve_section("fruits_poisons", tmp_path / "scenarios") == []
+    (tmp_path / "images" / "curves").mkdir(parents=True)
+    (tmp_path / "images" / "curves" / "fruits_poisons.png").write_bytes(b"png")
+    lines = scenario_page.curve_section("fruits_poisons", tmp_path / "scenarios")
+    assert "```{image} ../images/curves/fruits_poisons.png" in lines
+    sys.modules.pop("scenario_page", None)

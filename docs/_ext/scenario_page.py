@@ -62,6 +62,7 @@ def scenario_page(name: str, page_dir: Path, images: Path) -> str:
             "",
         ]
     parts += benchmark_section(name, page_dir)
+    parts += curve_section(name, page_dir)
     parts += _overrides(name, spec)
     parts += ["## The file", "", literal_file(path, page_dir), ""]
     return "\n".join(parts)
@@ -100,6 +101,24 @@ def benchmark_section(name: str, page_dir: Path) -> list[str]:
         "",
     ]
     return out
+
+
+def curve_section(name: str, page_dir: Path) -> list[str]:
+    """The scenario's learning curve from the benchmark (docs/images/curves/, drawn by
+    ``make benchmark-table`` from the committed results), if there is one."""
+    path = DOCS / "images" / "curves" / f"{name}.png"
+    if not path.is_file():
+        return []
+    alt = f"{name}: PPO's training return over agent-steps, IQM over seeds with 95% intervals"
+    return [
+        "### Learning curve",
+        "",
+        *picture(path, page_dir, alt, width=560),
+        "PPO's return while training at 50 checkpoints of each seed: the interquartile mean "
+        "over seeds, shaded between its 95% bootstrap interval, per tier of the benchmark; "
+        "random, scripted and open-loop play's held-out scores as lines.",
+        "",
+    ]
 
 
 def _pictures(name: str, page_dir: Path, images: Path) -> list[str]:
