@@ -532,11 +532,11 @@ def run(
     other versions of its scenarios than today's."""
     written: list[Path] = []
     stop = time.monotonic() + hours * 3600.0 if hours else float("inf")
-    level = config.tier(tier)
     for name, kind in tasks:  # before anything runs: no result of another version beside
         today = task_versions(name, kind)
         for path in sorted((out / name).rglob("seed_*.json")):
             check_versions(path, today)
+    level = config.tier(tier)
     for method in methods:
         for name, kind in tasks:
             if method == "ppo" and not (ppo_possible(name, kind) and level.runs(name)):

@@ -65,10 +65,11 @@ def test_the_benchmark_refuses_to_run_beside_results_of_another_version(tmp_path
     fruits = [("fruits_poisons", "scenario")]
     _write(tmp_path, "fruits_poisons", "random", 0)  # from before versions: version 0
     _write(tmp_path, "fruits_poisons", "scripted", 0, {"fruits_poisons": 0})
-    assert run(None, fruits, [], out=tmp_path) == []
+    config = load_config(ROOT / "baselines" / "benchmark.yaml")
+    assert run(config, fruits, [], out=tmp_path) == []
     stale = _write(tmp_path, "fruits_poisons", "ppo", 3, {"fruits_poisons": 1})
     with pytest.raises(VersionMismatch) as refused:
-        run(None, fruits, ["random"], out=tmp_path)
+        run(config, fruits, ["random"], out=tmp_path)
     message = str(refused.value)
     assert str(stale) in message and "fruits_poisons v1" in message
     assert "fruits_poisons v0" in message and "never mix" in message
