@@ -235,6 +235,27 @@ def _finish_step(space: pymunk.Space) -> None:
     space._post_step_callbacks.clear()
 
 
+# -- a space put back to where it stood (resets in place) -------------------------------
+
+
+def shape_counter(space: pymunk.Space) -> int:
+    """The hash id Chipmunk gives the next shape added to ``space`` (its spatial indexes
+    key their leaves by these ids, so the order of their work depends on them)."""
+    return int(_chipmunk.cpSpaceGetShapeIDCounter(space._space))
+
+
+def set_shape_counter(space: pymunk.Space, counter: int) -> None:
+    """Make ``counter`` the hash id of the next shape added to ``space``."""
+    _chipmunk.cpSpaceSetShapeIDCounter(space._space, counter)
+
+
+def forget_time_step(space: pymunk.Space) -> None:
+    """Make ``space``'s next step its first as far as the warm start of contacts goes
+    (Chipmunk scales the impulses it carries over by this step's length over the last's,
+    which a new space does not have)."""
+    _chipmunk.cpSpaceSetCurrentTimeStep(space._space, 0.0)
+
+
 # -- bodies from compiled code (the compiled tier) ---------------------------------------
 
 
