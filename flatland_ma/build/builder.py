@@ -41,7 +41,7 @@ from flatland_ma.sensors.suite import Sensors
 from flatland_ma.tasks.rule import RULE_KINDS, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
 from flatland_ma.world.channel import Channel
-from flatland_ma.world.entities import Door, Entity
+from flatland_ma.world.entities import Door, Entity, Item
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.placement import PlacementError, Placer, ResetBudget
 from flatland_ma.world.world import SiteMark, World
@@ -96,6 +96,9 @@ class Site:
     """Where the world stood when the site was complete; None: it is not kept."""
     budget_left: tuple[int, int] = (0, 0)
     """The places and grid cells the reset could still spend once the site stood."""
+    items: list[Item] = field(default_factory=list)
+    """The last episode's items, in the order they were made (the next episode's are
+    made on their bodies and shapes)."""
 
 
 def fixed_layout(spec: ScenarioSpec) -> bool:
@@ -187,10 +190,13 @@ def populate(
     world, placer = site.world, site.placer
     bodies = _place_agents(spec, world, placer, rng)
     groups = [item_group(item, g) for g, item in enumerate(spec.items)]
+    before = iter(site.items) if site.mark is not None else iter(())
+    items: list[Item] = []
     for g, item in enumerate(spec.items):
         if item.positions is not None:
             for x, y in item.positions:
-                world.add(make_item(item, groups[g], x, y, home=(x, y)))
+                items.append(make_item(item, groups[g], x, y, (x, y), next(before, None)))
+                world.add(items[-1])
             continue
         for k in range(item.count):
             if item.spawn is not None:
@@ -198,7 +204,10 @@ def populate(
             else:
                 path = ("items", g, "radius" if k == 0 else "count")
             x, y = _place(placer, rng, item.radius, item.spawn, path, "item")
-            world.add(make_item(item, groups[g], x, y))
+            items.append(make_item(item, groups[g], x, y, reuse=next(before, None)))
+            world.add(items[-1])
+    if site.mark is not None:
+        site.items = items
     for zone in spec.zones:
         world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
     placer.budget = None  # the reset is done; respawns are bounded one by one
