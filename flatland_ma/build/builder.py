@@ -96,9 +96,10 @@ class Site:
     """Where the world stood when the site was complete; None: it is not kept."""
     budget_left: tuple[int, int] = (0, 0)
     """The places and grid cells the reset could still spend once the site stood."""
+    agents: list[AgentBody] = field(default_factory=list)
     items: list[Item] = field(default_factory=list)
-    """The last episode's items, in the order they were made (the next episode's are
-    made on their bodies and shapes)."""
+    """The last episode's agents and items, in the order they were made (the next
+    episode's are made on their bodies and shapes)."""
 
 
 def fixed_layout(spec: ScenarioSpec) -> bool:
@@ -188,9 +189,10 @@ def populate(
     """Place the agents, then the items, then zones drawn at random; the sensors and the
     task."""
     world, placer = site.world, site.placer
-    bodies = _place_agents(spec, world, placer, rng)
+    kept = site.mark is not None
+    bodies = _place_agents(spec, world, placer, rng, site.agents if kept else [])
     groups = [item_group(item, g) for g, item in enumerate(spec.items)]
-    before = iter(site.items) if site.mark is not None else iter(())
+    before = iter(site.items if kept else ())
     items: list[Item] = []
     for g, item in enumerate(spec.items):
         if item.positions is not None:
@@ -206,8 +208,8 @@ def populate(
             x, y = _place(placer, rng, item.radius, item.spawn, path, "item")
             items.append(make_item(item, groups[g], x, y, reuse=next(before, None)))
             world.add(items[-1])
-    if site.mark is not None:
-        site.items = items
+    if kept:
+        site.agents, site.items = bodies, items
     for zone in spec.zones:
         world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
     placer.budget = None  # the reset is done; respawns are bounded one by one
@@ -248,7 +250,9 @@ def populate(
     return Episode(world, bodies, suite, task, site.grid, placer, hands, site.doors, eyes, site)
 
 
-def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list[AgentBody]:
+def _place_agents(
+    spec: ScenarioSpec, world: World, placer: Placer, rng, before: list[AgentBody]
+) -> list[AgentBody]:
     bodies = []
     groups = spawn_groups(spec)
     reaches = {g.team: footprint(g.agent, make_parts(g.agent)) for g in groups}
@@ -270,7 +274,8 @@ def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list
             if team is not None and team.color is not None
             else agent.colors[i % len(agent.colors)]
         )
-        body = make_agent(agent, i, (x, y), angle, color, world.substep_dt, world.dt)
+        again = before[i] if i < len(before) else None
+        body = make_agent(agent, i, (x, y), angle, color, world.substep_dt, world.dt, again)
         bodies.append(world.add(body))
         for link in body.links:
             world.add(link)

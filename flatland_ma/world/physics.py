@@ -97,6 +97,20 @@ def _fields_found() -> bool:
     return found == [3.25, -7.5, 0.625, 11.75] and (x, y) == tuple(probe.position)
 
 
+_USER_DATA, _BIAS = 23, (24, 25, 26)
+"""Where ``cpBody`` keeps its user data pointer (after its transform), then v_bias.x,
+v_bias.y and w_bias: the pseudo-velocities Chipmunk's solver leaves from one step for
+the next one's positions, which pymunk neither shows nor clears."""
+
+
+def _bias_found() -> bool:
+    """Whether a body's user data lies where ``_USER_DATA`` says (its biases follow it)."""
+    probe = pymunk.Body(1.0, 1.0)
+    words = (ctypes.c_size_t * (_USER_DATA + 1)).from_address(address(probe))
+    user = int(ffi.cast("uintptr_t", _chipmunk.cpBodyGetUserData(probe._body)))
+    return user != 0 and words[_USER_DATA] == user
+
+
 def _queues_found() -> bool:
     """Whether this pymunk keeps a space's queues and lock where ``step_directly``
     expects them (pymunk 7's ``Space``)."""
@@ -151,6 +165,8 @@ def _chosen(best: Tier, asked: str | None) -> Tier:
 BEST, _WHY = _best()
 """The fastest tier this pymunk allows."""
 TIER = _chosen(BEST, os.environ.get(VARIABLE))
+BIAS_CLEARABLE = TIER is Tier.COMPILED and _bias_found()
+"""Whether ``clear_bias`` can zero a body's pseudo-velocities in this process."""
 """The tier in use in this process."""
 
 
@@ -247,6 +263,17 @@ def shape_counter(space: pymunk.Space) -> int:
 def set_shape_counter(space: pymunk.Space, counter: int) -> None:
     """Make ``counter`` the hash id of the next shape added to ``space``."""
     _chipmunk.cpSpaceSetShapeIDCounter(space._space, counter)
+
+
+def clear_bias(body: pymunk.Body) -> bool:
+    """Zero ``body``'s pseudo-velocities, as a new body's are (the compiled tier only);
+    False when this tier cannot, and the body should be made anew instead."""
+    if not BIAS_CLEARABLE:
+        return False
+    words = (ctypes.c_double * (_BIAS[-1] + 1)).from_address(address(body))
+    for k in _BIAS:
+        words[k] = 0.0
+    return True
 
 
 def forget_time_step(space: pymunk.Space) -> None:
