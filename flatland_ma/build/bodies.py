@@ -140,8 +140,9 @@ def placed_again(old: AgentBody, position: tuple[float, float], angle: float, co
     """A base without parts as ``make_agent_body`` makes it, on ``old``'s pymunk bodies
     and shape (a reset in place makes no pymunk bodies for plain agents, so leaves none to
     the garbage collector): both bodies at rest where the base starts, their solver's
-    pseudo-velocities cleared (``physics.clear_bias``), the agent's state as new. Its two joints are made again, since Chipmunk carries each joint's impulse
-    from step to step and pymunk cannot clear it."""
+    pseudo-velocities cleared (``physics.clear_bias``), the agent's state as new. Its two
+    joints are made again, since Chipmunk carries each joint's impulse from step to step
+    and pymunk cannot clear it."""
     body, control = old.body, old.control
     for moved in (body, control):
         moved.velocity, moved.angular_velocity = (0.0, 0.0), 0.0

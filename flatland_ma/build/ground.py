@@ -22,8 +22,8 @@ from flatland_ma.build.layout import DoorPiece, Layout, WallPiece
 from flatland_ma.scenario.errors import SpecError, format_path
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.world.entities import Door, Entity, Obstacle
-from flatland_ma.world.physics import shape_counter
 from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.physics import shape_counter
 from flatland_ma.world.placement import ResetBudget
 from flatland_ma.world.world import World
 
@@ -98,7 +98,9 @@ class Ground:
             entity = make_obstacle(obstacle, world.space)
             self.place_clear(entity, ("obstacles", i))
             if entity.moving:
-                self.movers.append((entity.index, counter, partial(make_obstacle, obstacle, world.space)))
+                self.movers.append(
+                    (entity.index, counter, partial(make_obstacle, obstacle, world.space))
+                )
         # Free for the slimmest agent: every place some agent can go (planners that drive a
         # wider one plan on ``Episode.grid_for`` its radius).
         grid = NavGrid(spec.arena.size, min(a.radius for _, a, _ in spec.agent_kinds()))
