@@ -52,7 +52,8 @@ LAYOUT_TRIES = 20
 
 @dataclass
 class Episode:
-    """What one episode runs on; rebuilt from scratch at every reset."""
+    """What one episode runs on; made at every reset (on the last episode's site when
+    it is kept: see the module's docstring)."""
 
     world: World
     bodies: list[AgentBody]

@@ -98,13 +98,12 @@ def _fields_found() -> bool:
 
 
 _USER_DATA, _BIAS = 23, (24, 25, 26)
-"""Where ``cpBody`` keeps its user data pointer (after its transform), then v_bias.x,
-v_bias.y and w_bias: the pseudo-velocities Chipmunk's solver leaves from one step for
-the next one's positions, which pymunk neither shows nor clears."""
+"""Where ``cpBody`` keeps its user data, then v_bias and w_bias: the pseudo-velocities the
+solver leaves for the next step's positions (pymunk neither shows nor clears them)."""
 
 
 def _bias_found() -> bool:
-    """Whether a body's user data lies where ``_USER_DATA`` says (its biases follow it)."""
+    """Whether a body's user data lies at ``_USER_DATA`` (its biases follow it)."""
     probe = pymunk.Body(1.0, 1.0)
     words = (ctypes.c_size_t * (_USER_DATA + 1)).from_address(address(probe))
     user = int(ffi.cast("uintptr_t", _chipmunk.cpBodyGetUserData(probe._body)))
@@ -165,9 +164,9 @@ def _chosen(best: Tier, asked: str | None) -> Tier:
 BEST, _WHY = _best()
 """The fastest tier this pymunk allows."""
 TIER = _chosen(BEST, os.environ.get(VARIABLE))
+"""The tier in use in this process."""
 BIAS_CLEARABLE = TIER is Tier.COMPILED and _bias_found()
 """Whether ``clear_bias`` can zero a body's pseudo-velocities in this process."""
-"""The tier in use in this process."""
 
 
 def describe() -> str:
@@ -254,32 +253,27 @@ def _finish_step(space: pymunk.Space) -> None:
 # -- a space put back to where it stood (resets in place) -------------------------------
 
 
-def shape_counter(space: pymunk.Space) -> int:
+def shape_counter(space: pymunk.Space, set_to: int | None = None) -> int:
     """The hash id Chipmunk gives the next shape added to ``space`` (its spatial indexes
-    key their leaves by these ids, so the order of their work depends on them)."""
+    key their leaves by these ids, so the order of their work depends on them), after
+    making it ``set_to`` if given."""
+    if set_to is not None:
+        _chipmunk.cpSpaceSetShapeIDCounter(space._space, set_to)
     return int(_chipmunk.cpSpaceGetShapeIDCounter(space._space))
 
 
-def set_shape_counter(space: pymunk.Space, counter: int) -> None:
-    """Make ``counter`` the hash id of the next shape added to ``space``."""
-    _chipmunk.cpSpaceSetShapeIDCounter(space._space, counter)
-
-
 def clear_bias(body: pymunk.Body) -> bool:
-    """Zero ``body``'s pseudo-velocities, as a new body's are (the compiled tier only);
-    False when this tier cannot, and the body should be made anew instead."""
-    if not BIAS_CLEARABLE:
-        return False
-    words = (ctypes.c_double * (_BIAS[-1] + 1)).from_address(address(body))
-    for k in _BIAS:
-        words[k] = 0.0
-    return True
+    """Zero ``body``'s pseudo-velocities as a new body's are; False (nothing done) when
+    this tier cannot: the body should be made anew instead."""
+    if BIAS_CLEARABLE:
+        words = (ctypes.c_double * (_BIAS[-1] + 1)).from_address(address(body))
+        words[_BIAS[0]] = words[_BIAS[1]] = words[_BIAS[2]] = 0.0
+    return BIAS_CLEARABLE
 
 
 def forget_time_step(space: pymunk.Space) -> None:
-    """Make ``space``'s next step its first as far as the warm start of contacts goes
-    (Chipmunk scales the impulses it carries over by this step's length over the last's,
-    which a new space does not have)."""
+    """Make ``space``'s next step a first one for the warm start of contacts (Chipmunk
+    scales the impulses it carries over by this step's length over the last's)."""
     _chipmunk.cpSpaceSetCurrentTimeStep(space._space, 0.0)
 
 

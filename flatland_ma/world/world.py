@@ -220,11 +220,11 @@ class World:
             space.remove(*leaving)
         entities = self.entities[: mark.entities]
         for index, (counter, make) in movers.items():
-            physics.set_shape_counter(space, counter)
+            physics.shape_counter(space, counter)
             entity = entities[index] = make()
             entity.index = index
             space.add(entity.body, *entity.aux_bodies, *entity.shapes, *entity.constraints)
-        physics.set_shape_counter(space, mark.counter)
+        physics.shape_counter(space, mark.counter)
         physics.forget_time_step(space)
         self.entities = entities
         self.entity_of_shape = {s: e for e in entities for s in e.shapes}
