@@ -163,4 +163,4 @@ def test_many_resets_in_place_hold_no_more_than_the_first(scenario):
         assert counts() == first
         if k == 4:
             baseline = _live_pymunk_objects()
-    assert _live_pymunk_objects() == baseline
+    assert _live_pymunk_objects() <= baseline
