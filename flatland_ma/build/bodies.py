@@ -8,7 +8,10 @@ several, ``arm<k>`` and ``arm<k>_joint<j>``; a single grasper's macros are ``gra
 
 from __future__ import annotations
 
+import dataclasses
 import math
+
+import pymunk
 
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
@@ -18,6 +21,7 @@ from flatland_ma.scenario.spec_agent import AgentSpec, ChannelSpec
 from flatland_ma.sensors.hearing import Hearing
 from flatland_ma.sensors.noise import Noise
 from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
+from flatland_ma.world import physics
 from flatland_ma.world.looks import RGB
 
 MOTOR_KEYS = ("radius", "mass", "max_speed", "max_turn_rate", "max_force", "max_torque")
@@ -118,9 +122,14 @@ def make_agent(
     color: RGB,
     substep_dt: float,
     step_dt: float,
+    reuse: AgentBody | None = None,
 ) -> AgentBody:
     """Agent ``index``'s base and parts at ``position`` facing ``angle`` (radians); the
-    parts are built but not yet added to a world (``body.links`` are)."""
+    parts are built but not yet added to a world (``body.links`` are). With ``reuse`` (the
+    same agent's base in the last episode, out of the space), a base without parts is
+    made on its bodies and shape (see ``placed_again``)."""
+    if reuse is not None and not reuse.parts and not agent.parts and physics.BIAS_CLEARABLE:
+        return placed_again(reuse, position, angle, color)
     motor = agent.model_dump(include=set(MOTOR_KEYS))
     body = make_agent_body(index, position, angle, color, substep_dt, step_dt, **motor)
     for shape in body.shapes:
@@ -137,3 +146,37 @@ def make_agent(
         if isinstance(built, Link):
             body.links.append(built)  # parents before children: parts build in that order
     return body
+
+
+def placed_again(old: AgentBody, position: tuple[float, float], angle: float, color) -> AgentBody:
+    """A base without parts as ``make_agent_body`` makes it, on ``old``'s pymunk bodies
+    and shape (a reset in place makes no pymunk bodies for plain agents, so leaves none to
+    the garbage collector): both bodies at rest where the base starts, their solver's
+    pseudo-velocities cleared (``physics.clear_bias``), the agent's state as new. Its two
+    joints are made again, since Chipmunk carries each joint's impulse from step to step
+    and pymunk cannot clear it."""
+    body, control = old.body, old.control
+    for moved in (body, control):
+        moved.velocity, moved.angular_velocity = (0.0, 0.0), 0.0
+        moved.force, moved.torque = (0.0, 0.0), 0.0
+        physics.clear_bias(moved)
+    body.position, body.angle = position, angle
+    control.position, control.angle = position, 0.0
+    pivot, gear = old.constraints
+    slide = pymunk.PivotJoint(control, body, (0.0, 0.0), (0.0, 0.0))
+    slide.max_bias, slide.max_force = pivot.max_bias, pivot.max_force
+    spin = pymunk.GearJoint(control, body, gear.phase, gear.ratio)  # type: ignore[attr-defined]
+    spin.max_bias, spin.max_force = gear.max_bias, gear.max_force
+    return dataclasses.replace(
+        old,
+        constraints=(slide, spin),
+        color=color,
+        index=-1,
+        visible=True,
+        touching=0,
+        target=(0.0, 0.0, 0.0),
+        parts=[],
+        links=[],
+        joints=[],
+        hands=[],
+    )

@@ -6,6 +6,15 @@ file order), from the env's generator when the scenario asks for a new layout ea
 episode, otherwise from the layout's own seed. Then agents, then items group by group,
 then zones placed at random, at free places the agents can reach, from the env's
 generator, in that order; then the sensors and the task.
+
+Resets in place: a scenario of a fixed layout (``fixed_layout``) draws the same site every
+episode, so its site (the world with its walls and fixed obstacles, the grid, what agents
+can reach, the placer) is built once and kept; each later episode rewinds the world to it
+(``World.rewind``: what the last episode added leaves, the movable obstacles are made
+again) and places what moves. The env's generator is drawn from in the same order as by
+a fresh build (the site draws nothing from it), so trajectories are the same. A site with
+doors, or with anything but fixed and movable obstacles, or whose fixed entities the
+episode moved (``World.site_moved``), is built again instead.
 """
 
 from __future__ import annotations
@@ -14,6 +23,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+import pymunk
 
 from flatland_ma.agents.body import AgentBody
 from flatland_ma.agents.grasp import Hands
@@ -32,10 +42,10 @@ from flatland_ma.sensors.suite import Sensors
 from flatland_ma.tasks.rule import RULE_KINDS, Rule, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
 from flatland_ma.world.channel import Channel
-from flatland_ma.world.entities import Door, Entity
+from flatland_ma.world.entities import Door, Entity, Item
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.placement import PlacementError, Placer, ResetBudget
-from flatland_ma.world.world import World
+from flatland_ma.world.world import SiteMark, World
 
 LAYOUT_TRIES = 20
 """Fresh draws of a generated layout before giving up on one that cannot be built."""
@@ -43,7 +53,8 @@ LAYOUT_TRIES = 20
 
 @dataclass
 class Episode:
-    """What one episode runs on; rebuilt from scratch at every reset."""
+    """What one episode runs on; made at every reset (on the last episode's site when
+    it is kept: see the module's docstring)."""
 
     world: World
     bodies: list[AgentBody]
@@ -57,6 +68,8 @@ class Episode:
     doors: list[Door]
     eyes: list[Entity]
     """Each sensor's carrier (agent by agent, sensor by sensor): its base, or its head."""
+    site: Site | None = None
+    """The site the episode stands on (the next episode's, when it can be kept)."""
     _grids: dict[float, NavGrid] = field(default_factory=dict, repr=False)
 
     def grid_for(self, radius: float) -> NavGrid:
@@ -80,22 +93,57 @@ class Site:
     grid: NavGrid
     placer: Placer
     """Places agents can reach (through the doors they can open)."""
+    spec: ScenarioSpec | None = None
+    mark: SiteMark | None = None
+    """Where the world stood when the site was complete; None: it is not kept."""
+    budget_left: tuple[int, int] = (0, 0)
+    """The places and grid cells the reset could still spend once the site stood."""
+    agents: list[AgentBody] = field(default_factory=list)
+    items: list[Item] = field(default_factory=list)
+    """The last episode's agents and items, in the order they were made (the next
+    episode's are made on their bodies and shapes)."""
 
 
-def build(spec: ScenarioSpec, rng: np.random.Generator, sensors: list[list[Sensor]]) -> Episode:
-    """A new episode; ``sensors[i]`` are agent i's. A scenario that cannot be built (e.g.
-    no room left for an item at this seed) raises ``ScenarioError`` naming its file, line
-    and key."""
+def fixed_layout(spec: ScenarioSpec) -> bool:
+    """Whether every episode of ``spec`` stands on the same site: its layout is not drawn
+    again each episode (no generator, or ``per_episode`` false: drawn from the layout's
+    own seed). The one place that decides which scenarios reset in place."""
+    return not spec.layout.per_episode or not spec.layout.generators
+
+
+def build(
+    spec: ScenarioSpec,
+    rng: np.random.Generator,
+    sensors: list[list[Sensor]],
+    previous: Site | None = None,
+) -> Episode:
+    """A new episode; ``sensors[i]`` are agent i's; on ``previous``, the last episode's
+    site, when it can be kept (see the module's docstring). A scenario that cannot be
+    built (e.g. no room left for an item at this seed) raises ``ScenarioError`` naming
+    its file, line and key."""
     try:
-        return populate(spec, lay_ground(spec, rng), rng, sensors)
+        site = rewound(previous, spec)
+        return populate(spec, site if site is not None else lay_ground(spec, rng), rng, sensors)
     except SpecError as err:
         raise spec.locate(err) from None
+
+
+def rewound(site: Site | None, spec: ScenarioSpec) -> Site | None:
+    """``site`` put back as it stood when built, ready for an episode of ``spec``; None
+    when it cannot be kept."""
+    if site is None or site.mark is None or site.spec is not spec or site.world.site_moved:
+        return None
+    site.world.rewind(site.mark)
+    budget = ResetBudget()
+    budget.tries, budget.search = site.budget_left
+    site.placer.budget = budget
+    return site
 
 
 def lay_ground(spec: ScenarioSpec, rng: np.random.Generator) -> Site:
     """The ground of an episode; a layout generated per episode is drawn again (up to
     ``LAYOUT_TRIES`` times) while it cannot be used."""
-    fixed = not spec.layout.per_episode or not spec.layout.generators
+    fixed = fixed_layout(spec)
     layout_rng = np.random.default_rng(spec.layout.seed) if fixed else rng
     budget = ResetBudget()  # shared by every attempt, and then by populate
     for attempt in range(1 if fixed else LAYOUT_TRIES):
@@ -119,7 +167,22 @@ def _site(spec: ScenarioSpec, rng: np.random.Generator, budget: ResetBudget) -> 
             where = group.area_path or ("arena", "size")
             raise SpecError(where, "no free place where agents could start")
     region = reachable_region(spec, grid, ground.doors, start, budget)
-    return Site(world, ground.doors, grid, Placer(world, grid, region, budget))
+    site = Site(world, ground.doors, grid, Placer(world, grid, region, budget), spec)
+    movers = {index for index, _, _ in ground.movers}
+    if (
+        fixed_layout(spec)
+        and not ground.doors
+        and all(e.index in movers or not _moves(e) for e in world.entities)
+    ):
+        site.mark = world.mark(ground.movers)
+        site.budget_left = (budget.tries, budget.search)
+    return site
+
+
+def _moves(entity: Entity) -> bool:
+    """Whether an entity of the site may change in an episode (a body that is not
+    static, or constraints)."""
+    return entity.body.body_type != pymunk.Body.STATIC or bool(entity.constraints)
 
 
 def populate(
@@ -128,12 +191,16 @@ def populate(
     """Place the agents, then the items, then zones drawn at random; the sensors and the
     task."""
     world, placer = site.world, site.placer
-    bodies = _place_agents(spec, world, placer, rng)
+    kept = site.mark is not None
+    bodies = _place_agents(spec, world, placer, rng, site.agents if kept else [])
     groups = [item_group(item, g) for g, item in enumerate(spec.items)]
+    before = iter(site.items if kept else ())
+    items: list[Item] = []
     for g, item in enumerate(spec.items):
         if item.positions is not None:
             for x, y in item.positions:
-                world.add(make_item(item, groups[g], x, y, home=(x, y)))
+                items.append(make_item(item, groups[g], x, y, (x, y), next(before, None)))
+                world.add(items[-1])
             continue
         for k in range(item.count):
             if item.spawn is not None:
@@ -141,7 +208,10 @@ def populate(
             else:
                 path = ("items", g, "radius" if k == 0 else "count")
             x, y = _place(placer, rng, item.radius, item.spawn, path, "item")
-            world.add(make_item(item, groups[g], x, y))
+            items.append(make_item(item, groups[g], x, y, reuse=next(before, None)))
+            world.add(items[-1])
+    if kept:
+        site.agents, site.items = bodies, items
     for zone in spec.zones:
         world.add_zone(make_zone(zone, zone.rect or _draw_zone(zone, placer, rng)))
     placer.budget = None  # the reset is done; respawns are bounded one by one
@@ -179,7 +249,7 @@ def populate(
     extra = [_make_rule(k, r) for k, r in enumerate(spec.rules)]
     episode = spec.episode
     task = Task(ctx, extra, episode.shared_end, episode.end_when_eaten)
-    return Episode(world, bodies, suite, task, site.grid, placer, hands, site.doors, eyes)
+    return Episode(world, bodies, suite, task, site.grid, placer, hands, site.doors, eyes, site)
 
 
 def _make_rule(k: int, rule) -> Rule:
@@ -189,7 +259,9 @@ def _make_rule(k: int, rule) -> Rule:
     return make_kind(kind, f"rules[{k}]", values, kind, **values)
 
 
-def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list[AgentBody]:
+def _place_agents(
+    spec: ScenarioSpec, world: World, placer: Placer, rng, before: list[AgentBody]
+) -> list[AgentBody]:
     bodies = []
     groups = spawn_groups(spec)
     reaches = {g.team: footprint(g.agent, make_parts(g.agent)) for g in groups}
@@ -211,7 +283,8 @@ def _place_agents(spec: ScenarioSpec, world: World, placer: Placer, rng) -> list
             if team is not None and team.color is not None
             else agent.colors[i % len(agent.colors)]
         )
-        body = make_agent(agent, i, (x, y), angle, color, world.substep_dt, world.dt)
+        again = before[i] if i < len(before) else None
+        body = make_agent(agent, i, (x, y), angle, color, world.substep_dt, world.dt, again)
         bodies.append(world.add(body))
         for link in body.links:
             world.add(link)

@@ -224,21 +224,39 @@ def item_group(spec: ItemSpec, index: int) -> ItemGroup:
     )
 
 
-def make_item(spec: ItemSpec, group: ItemGroup, x: float, y: float, home=None) -> Item:
-    body = pymunk.Body(body_type=pymunk.Body.STATIC)
-    body.position = (x, y)
-    shape = pymunk.Circle(body, spec.radius)
-    shape.sensor = True
-    shape.collision_type = CollisionType.ITEM
-    shape.filter = shape_filter(Category.ITEM)
-    return Item(
-        body=body,
-        shapes=(shape,),
+def make_item(
+    spec: ItemSpec, group: ItemGroup, x: float, y: float, home=None, reuse: Item | None = None
+) -> Item:
+    """An item of ``spec`` at (x, y); ``reuse`` made again when given (an item of the same
+    spec from the last episode, out of the space: a reset in place makes no new objects
+    for items, so leaves none to the garbage collector)."""
+    if reuse is None:
+        body = pymunk.Body(body_type=pymunk.Body.STATIC)
+        body.position = (x, y)
+        shape = pymunk.Circle(body, spec.radius)
+        shape.sensor = True
+        shape.collision_type = CollisionType.ITEM
+        shape.filter = shape_filter(Category.ITEM)
+        return Item(
+            body=body,
+            shapes=(shape,),
+            color=spec.color,
+            texture=look(spec.texture),
+            group=group,
+            home=home,
+        )
+    reuse.body.position = (x, y)
+    # Made again in place: every field as a new item's, no new object for the collector.
+    Item.__init__(
+        reuse,
+        body=reuse.body,
+        shapes=reuse.shapes,
         color=spec.color,
         texture=look(spec.texture),
         group=group,
         home=home,
     )
+    return reuse
 
 
 def make_zone(spec: ZoneSpec, rect: Rect) -> Zone:

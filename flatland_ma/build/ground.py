@@ -11,6 +11,9 @@ the file and the generators before it made.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from functools import partial
+
 import numpy as np
 
 from flatland_ma.build.capacity import spawn_groups
@@ -20,6 +23,7 @@ from flatland_ma.scenario.errors import SpecError, format_path
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.world.entities import Door, Entity, Obstacle
 from flatland_ma.world.navigation import NavGrid
+from flatland_ma.world.physics import shape_counter
 from flatland_ma.world.placement import ResetBudget
 from flatland_ma.world.world import World
 
@@ -38,6 +42,9 @@ class Ground:
         self.door_pieces: list[DoorPiece] = []
         self.doors: list[Door] = []
         self.owners: dict = {}
+        self.movers: list[tuple[int, int, Callable[[], Entity]]] = []
+        """The file's obstacles that physics moves: index, the shape counter when added,
+        and what makes them again (``World.mark``)."""
         """Each solid shape's key path in the scenario, for messages about overlaps."""
         self._world: World | None = None
         self._grid: NavGrid | None = None
@@ -94,7 +101,13 @@ class Ground:
         self._world = world
         self._build(self.walls, self.door_pieces, check=False)
         for i, obstacle in enumerate(spec.obstacles):
-            self.place_clear(make_obstacle(obstacle, world.space), ("obstacles", i))
+            counter = shape_counter(world.space)
+            entity = make_obstacle(obstacle, world.space)
+            self.place_clear(entity, ("obstacles", i))
+            if entity.moving:
+                self.movers.append(
+                    (entity.index, counter, partial(make_obstacle, obstacle, world.space))
+                )
         # Free for the slimmest agent: every place some agent can go (planners that drive a
         # wider one plan on ``Episode.grid_for`` its radius).
         grid = NavGrid(spec.arena.size, min(a.radius for _, a, _ in spec.agent_kinds()))

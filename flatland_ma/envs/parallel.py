@@ -269,7 +269,8 @@ class FlatlandParallelEnv(ParallelEnv):
         return observations, reward_d, terminated_d, truncated_d, infos
 
     def _start_episode(self) -> None:
-        self.episode = episode = build(self.spec, self.np_random, self._sensors)
+        site = None if self.episode is None else self.episode.site
+        self.episode = episode = build(self.spec, self.np_random, self._sensors, site)
         self._state_parts = state_entities(episode)
         episode.sensors.observe()
         self.num_steps = 0

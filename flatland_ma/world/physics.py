@@ -97,6 +97,19 @@ def _fields_found() -> bool:
     return found == [3.25, -7.5, 0.625, 11.75] and (x, y) == tuple(probe.position)
 
 
+_USER_DATA, _BIAS = 23, (24, 25, 26)
+"""Where ``cpBody`` keeps its user data, then v_bias and w_bias: the pseudo-velocities the
+solver leaves for the next step's positions (pymunk neither shows nor clears them)."""
+
+
+def _bias_found() -> bool:
+    """Whether a body's user data lies at ``_USER_DATA`` (its biases follow it)."""
+    probe = pymunk.Body(1.0, 1.0)
+    words = (ctypes.c_size_t * (_USER_DATA + 1)).from_address(address(probe))
+    user = int(ffi.cast("uintptr_t", _chipmunk.cpBodyGetUserData(probe._body)))
+    return user != 0 and words[_USER_DATA] == user
+
+
 def _queues_found() -> bool:
     """Whether this pymunk keeps a space's queues and lock where ``step_directly``
     expects them (pymunk 7's ``Space``)."""
@@ -152,6 +165,8 @@ BEST, _WHY = _best()
 """The fastest tier this pymunk allows."""
 TIER = _chosen(BEST, os.environ.get(VARIABLE))
 """The tier in use in this process."""
+BIAS_CLEARABLE = TIER is Tier.COMPILED and _bias_found()
+"""Whether ``clear_bias`` can zero a body's pseudo-velocities in this process."""
 
 
 def describe() -> str:
@@ -233,6 +248,33 @@ def _finish_step(space: pymunk.Space) -> None:
     for key in space._post_step_callbacks:
         space._post_step_callbacks[key](space)
     space._post_step_callbacks.clear()
+
+
+# -- a space put back to where it stood (resets in place) -------------------------------
+
+
+def shape_counter(space: pymunk.Space, set_to: int | None = None) -> int:
+    """The hash id Chipmunk gives the next shape added to ``space`` (its spatial indexes
+    key their leaves by these ids, so the order of their work depends on them), after
+    making it ``set_to`` if given."""
+    if set_to is not None:
+        _chipmunk.cpSpaceSetShapeIDCounter(space._space, set_to)
+    return int(_chipmunk.cpSpaceGetShapeIDCounter(space._space))
+
+
+def clear_bias(body: pymunk.Body) -> bool:
+    """Zero ``body``'s pseudo-velocities as a new body's are; False (nothing done) when
+    this tier cannot: the body should be made anew instead."""
+    if BIAS_CLEARABLE:
+        words = (ctypes.c_double * (_BIAS[-1] + 1)).from_address(address(body))
+        words[_BIAS[0]] = words[_BIAS[1]] = words[_BIAS[2]] = 0.0
+    return BIAS_CLEARABLE
+
+
+def forget_time_step(space: pymunk.Space) -> None:
+    """Make ``space``'s next step a first one for the warm start of contacts (Chipmunk
+    scales the impulses it carries over by this step's length over the last's)."""
+    _chipmunk.cpSpaceSetCurrentTimeStep(space._space, 0.0)
 
 
 # -- bodies from compiled code (the compiled tier) ---------------------------------------

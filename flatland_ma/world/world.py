@@ -4,7 +4,8 @@ log, and which entities changed since the sensors last looked."""
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from typing import cast
 
 import pymunk
@@ -16,6 +17,21 @@ from flatland_ma.world.entities import Category, CollisionType, Door, Entity, It
 
 _SOLID_OR_ITEM = pymunk.ShapeFilter(mask=Category.EVERYTHING)
 _AGENT_TYPES = (CollisionType.AGENT, CollisionType.GRASPER)
+
+
+@dataclass(frozen=True)
+class SiteMark:
+    """Where a world stood when its static site was complete (``World.mark``), so that
+    ``World.rewind`` can put it back there for another episode."""
+
+    entities: int
+    """How many entities the site has (the first ones of ``World.entities``)."""
+    counter: int
+    """The shape hash id Chipmunk was to give next (``physics.shape_counter``)."""
+    revision: int
+    movers: tuple[tuple[int, int, Callable[[], Entity]], ...]
+    """The site's entities that physics moves, each made again at every rewind: its
+    index, the shape counter when it was added, and what makes it."""
 
 
 class World:
@@ -56,6 +72,10 @@ class World:
         self._felt: dict[pymunk.Shape, tuple[int, pymunk.Body]] = {}
         """Each felt shape's row in ``log.pushes`` (see ``feel``), and its body."""
         self._felt_rows = 0
+        self._site_size = 0
+        self.site_moved = False
+        """Whether a fixed entity of the marked site was moved, hidden or shown (then the
+        site cannot be rewound: a new world is built)."""
         on = self.space.on_collision
         on(CollisionType.AGENT, CollisionType.ITEM, begin=self._on_item)
         on(CollisionType.GRASPER, CollisionType.ITEM, begin=self._on_item)
@@ -97,6 +117,7 @@ class World:
 
     def withdraw(self, entity: Entity) -> None:
         """Take an entity's shapes out of the physics (it stays listed, hidden)."""
+        self._note_site(entity)
         entity.visible = False
         present = [s for s in entity.shapes if s.space is not None]
         if present:
@@ -106,6 +127,7 @@ class World:
 
     def restore(self, entity: Entity) -> None:
         """Put a withdrawn entity's shapes back."""
+        self._note_site(entity)
         entity.visible = True
         absent = [s for s in entity.shapes if s.space is None]
         if absent:
@@ -124,6 +146,7 @@ class World:
 
     def move_static(self, entity: Entity, x: float, y: float) -> None:
         """Move a static or kinematic entity (e.g. a respawned item)."""
+        self._note_site(entity)
         entity.body.position = (x, y)
         self.space.reindex_shapes_for_body(entity.body)
         self.changed.append(entity)
@@ -158,6 +181,60 @@ class World:
             assert body is not None, "a shape to feel without its body"
             self._felt[shape] = (row, body)
         return row
+
+    def _note_site(self, entity: Entity) -> None:
+        if entity.index < self._site_size and not entity.moving:
+            self.site_moved = True
+
+    # -- resets in place ----------------------------------------------------------------
+
+    def mark(self, movers: Iterable[tuple[int, int, Callable[[], Entity]]] = ()) -> SiteMark:
+        """Remember this world as the static site of every episode: its entities so far,
+        fixed but for ``movers`` (index, shape counter when added, maker), which
+        ``rewind`` makes again. The world must hold no agent yet."""
+        assert not self.agents and not self.zones, "a site is marked before the episode's things"
+        self._site_size = len(self.entities)
+        self.site_moved = False
+        counter = physics.shape_counter(self.space)
+        return SiteMark(len(self.entities), counter, self.revision, tuple(movers))
+
+    def rewind(self, mark: SiteMark) -> None:
+        """Put the world back to its marked site, as Chipmunk would hold it had the site
+        just been built: everything added since leaves the space, the movers are made
+        again where they started, with the hash ids their shapes had (each spatial index
+        is then the tree it was, and works in the same order), and the next shape gets the
+        id it got then. What the world kept of the episode (agents, zones, the channel,
+        the contact log, grips, felt shapes) is dropped. Only while ``site_moved`` is
+        False."""
+        assert not self.site_moved, "a fixed entity of the site moved: it cannot be rewound"
+        space = self.space
+        movers = {index: (counter, make) for index, counter, make in mark.movers}
+        kept = [e for e in self.entities[: mark.entities] if e.index not in movers]
+        keep_shapes = {s for e in kept for s in e.shapes}
+        keep_bodies = {b for e in kept for b in (e.body, *e.aux_bodies)}
+        keep_constraints = {c for e in kept for c in e.constraints}
+        leaving = [c for c in space.constraints if c not in keep_constraints]
+        leaving += [s for s in space.shapes if s not in keep_shapes]
+        leaving += [b for b in space.bodies if b not in keep_bodies]
+        if leaving:
+            space.remove(*leaving)
+        entities = self.entities[: mark.entities]
+        for index, (counter, make) in movers.items():
+            physics.shape_counter(space, counter)
+            entity = entities[index] = make()
+            entity.index = index
+            space.add(entity.body, *entity.aux_bodies, *entity.shapes, *entity.constraints)
+        physics.shape_counter(space, mark.counter)
+        physics.forget_time_step(space)
+        self.entities = entities
+        self.entity_of_shape = {s: e for e in entities for s in e.shapes}
+        self.agents, self.zones, self.channel = [], [], None
+        self.tagged = [e for e in entities if isinstance(e, Obstacle) and e.tag is not None]
+        self.log.clear()
+        self.changed = []
+        self.revision = mark.revision
+        self.grips = {}
+        self._inside, self._felt, self._felt_rows = [], {}, 0
 
     def take_changed(self) -> list[Entity]:
         """The entities changed since the last call, each once."""
