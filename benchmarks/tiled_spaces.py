@@ -28,6 +28,8 @@ in every arrangement. The arrangements are stepped in turn, ``STEPS`` steps each
 (``time.thread_time``), per world-step:
 
 - ``physics``: stepping every world (``substeps`` pymunk steps each);
+- ``physics`` of ``empty_spaces``: as many empty spaces stepped in turn: the floor of
+  one space per world;
 - ``poses``: reading the agents' poses (x, y, angle) of every world after the step: for
   the separate spaces through each reader of the bridge (``compiled``: struct reads of
   every world in one compiled call, when that tier is available; ``batch``: one
@@ -295,6 +297,25 @@ class Arrangement:
         return out
 
 
+class EmptySpaces:
+    """As many empty spaces as worlds, stepped as ``separate`` steps its spaces: what
+    stepping a space costs before it holds anything (pymunk's and the bridge's Python
+    around Chipmunk's step, and Chipmunk's fixed cost)."""
+
+    def __init__(self, sources: list[Template]):
+        self.spaces = [_new_space(t.space) for t in sources]
+        self.dt, self.substeps = sources[0].dt, sources[0].substeps
+        self._step = physics.stepper()
+
+    def drive(self, commands: np.ndarray) -> None:
+        pass
+
+    def step(self) -> None:
+        step, dt, substeps = self._step, self.dt, self.substeps
+        for space in self.spaces:
+            step(space, dt, substeps)
+
+
 def _circles(space: pymunk.Space) -> list[pymunk.Circle]:
     return [s for s in space.shapes if isinstance(s, pymunk.Circle)] or [pymunk.Circle(None, 10)]
 
@@ -369,7 +390,8 @@ def _commands(sources: list[Template], steps: int, seed: int) -> np.ndarray:
 
 
 def time_row(sources: list[Template], steps: int, rounds: int, seed: int) -> Timing:
-    built = {name: Arrangement(sources, name) for name in timed_arrangements(len(sources))}
+    built: dict = {name: Arrangement(sources, name) for name in timed_arrangements(len(sources))}
+    built["empty_spaces"] = EmptySpaces(sources)
     readers = {f"separate_{k}": SeparateReaders(built["separate"], k) for k in separate_kinds()}
     readers["tiled_batch"] = TiledReader(built["tiled"])
     readers["tiled_hash_batch"] = TiledReader(built["tiled_hash"])

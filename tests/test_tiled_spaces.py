@@ -91,7 +91,7 @@ def test_the_readers_agree_and_a_run_writes_its_figures(tmp_path, capsys):
     result = json.loads(path.read_text())
     (row,) = result["rows"]
     assert row["worlds"] == 3 and row["agents"] == 1
-    assert set(row["physics"]) == {"separate", "tiled", "tiled_hash", "stacked"}
+    assert set(row["physics"]) == {"separate", "tiled", "tiled_hash", "stacked", "empty_spaces"}
     assert all(len(v) == 2 and min(v) > 0 for v in row["physics"].values())
     assert {"tiled_batch", "separate_batch", "separate_attributes"} <= set(row["poses"])
     assert result["faithful"] == {"fruits_poisons": True}
