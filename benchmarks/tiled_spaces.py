@@ -6,7 +6,7 @@ world in one space, far enough apart that nothing touches across worlds, so that
 
 Each row takes ``worlds`` worlds of a shipped scenario, built by ``FlatlandParallelEnv``
 (seeds ``seed`` to ``seed + worlds - 1``) and copied at their reset (bodies, shapes and
-joints, before any step) into three arrangements:
+joints, before any step) into these arrangements:
 
 ``separate``
     one space per world, as the env runs them, each stepped in turn through the bridge's
@@ -17,7 +17,12 @@ joints, before any step) into three arrangements:
     bounding-box trees index the shapes;
 ``tiled_hash``
     the same, with Chipmunk's spatial hash (``Space.use_spatial_hash``) in place of the
-    trees.
+    trees;
+``tiled_groups``
+    tiled in spaces of ``GROUP`` worlds each;
+``stacked`` (rows of at most ``STACKED_MAX`` worlds)
+    every world in one space at the origin, kept apart by shape-filter categories, one
+    bit per world (no offset).
 
 Every space gets the same contact handlers, which record each world's contacts (agents
 against items, and every begin and end of an agent's contact) as the world's own do, so
@@ -90,7 +95,7 @@ GAP = 2.0
 bodies inside it, so any gap above one keeps worlds from touching."""
 COMMANDS = 16
 """Distinct steps of drawn commands the timing cycles through."""
-TIMED = ("separate", "tiled", "tiled_hash", "stacked")
+TIMED = ("separate", "tiled", "tiled_hash", "tiled_groups", "stacked")
 
 
 def timed_arrangements(worlds: int) -> tuple[str, ...]:
@@ -104,6 +109,7 @@ STUDIED = (
     ("tiled_hash", "separate"),
     ("tiled", "separate_shifted"),
     ("tiled_hash", "separate_shifted"),
+    ("tiled_groups", "separate"),
     ("stacked", "separate"),
 )
 """The pairs the study compares: (arrangement, against): against the separate spaces, and
@@ -218,36 +224,43 @@ def _listen(space: pymunk.Space, owner: dict) -> None:
     on(CollisionType.AGENT, CollisionType.DOOR, begin=_recorder(owner, "door"))
 
 
-KINDS = ("separate", "separate_shifted", "tiled", "tiled_hash", "stacked")
+KINDS = ("separate", "separate_shifted", "tiled", "tiled_hash", "tiled_groups", "stacked")
+GROUP = 16
+"""Worlds per space in ``tiled_groups``."""
 STACKED_MAX = 27
 """Worlds a stack can hold: the shape-filter category bits that flatland_ma's own
 categories (``Category``, five bits) leave free."""
 
 
 class Arrangement:
-    """Copies of the worlds of ``sources``, arranged as ``kind`` says: ``separate`` (a
-    space each), ``separate_shifted`` (a space each, moved by the tiles' offsets),
-    ``tiled`` and ``tiled_hash`` (one space, moved by the offsets; trees or spatial hash)
-    or ``stacked`` (one space, all at the origin, kept apart by shape filters: world
-    ``k``'s shapes take category bit ``5 + k`` alone, which drops flatland_ma's own
-    categories: right only for worlds whose filters let every shape meet every other,
-    as those of fruits_poisons do; at most ``STACKED_MAX`` worlds)."""
+    """Copies of the worlds of ``sources``, arranged as ``kind`` says (the module's
+    docstring; ``separate_shifted``: a space each, moved by the tiles' offsets).
+    ``stacked`` gives world ``k``'s shapes category bit ``5 + k`` alone, which drops
+    flatland_ma's own categories: right only for worlds whose filters let every shape
+    meet every other, as those of fruits_poisons do; at most ``STACKED_MAX`` worlds."""
 
     def __init__(self, sources: list[Template], kind: str):
         if kind not in KINDS or (kind == "stacked" and len(sources) > STACKED_MAX):
             raise ValueError(f"{kind!r} of {len(sources)} worlds: one of {KINDS}")
-        shifted = kind in ("separate_shifted", "tiled", "tiled_hash")
-        self.tiled = kind in ("tiled", "tiled_hash", "stacked")
-        self.offsets = offsets(sources) if shifted else np.zeros((len(sources), 2))
+        shifted = kind in ("separate_shifted", "tiled", "tiled_hash", "tiled_groups")
+        self.tiled = kind in ("tiled", "tiled_hash", "stacked", "tiled_groups")
+        group = GROUP if kind == "tiled_groups" else len(sources) if self.tiled else 1
+        self.offsets = np.zeros((len(sources), 2))
+        if shifted:
+            tiles = offsets(sources[:group] if kind == "tiled_groups" else sources)
+            self.offsets[:] = tiles[np.arange(len(sources)) % len(tiles)]
+        self.group = group
+        """Worlds per space."""
         self.dt, self.substeps = sources[0].dt, sources[0].substeps
         self.logs: list[list] = [[] for _ in sources]
         self.agents: list[list[pymunk.Body]] = []
         self.limits = [t.limits for t in sources]
         owner: dict = {}
-        shared = _new_space(sources[0].space) if self.tiled else None
-        self.spaces: list[pymunk.Space] = [] if shared is None else [shared]
+        self.spaces: list[pymunk.Space] = []
         for k, source in enumerate(sources):
-            space = shared if shared is not None else _new_space(source.space)
+            if k % group == 0:
+                self.spaces.append(_new_space(source.space))
+            space = self.spaces[-1]
             bodies, shapes, constraints, agents = copy.deepcopy(
                 (source.bodies, source.shapes, source.constraints, source.agents)
             )
@@ -263,8 +276,6 @@ class Arrangement:
             for shape, index in zip(shapes, source.entity):
                 owner[shape] = (self.logs[k], index)
             self.agents.append(agents)
-            if shared is None:
-                self.spaces.append(space)
         for space in self.spaces:
             _listen(space, owner)
             if kind == "tiled_hash":
@@ -324,18 +335,25 @@ def _circles(space: pymunk.Space) -> list[pymunk.Circle]:
 
 
 class TiledReader:
-    """Every agent's pose from the tiled space in one ``pymunk.batch`` read, each world's
-    offset taken off: ``pose`` is ``(worlds, agents, 3)``."""
+    """Every agent's pose from the tiled spaces in one ``pymunk.batch`` read per space,
+    each world's offset taken off: ``pose`` is ``(worlds, agents, 3)``."""
 
     def __init__(self, arrangement: Arrangement):
         worlds, agents = len(arrangement.agents), len(arrangement.agents[0])
         self.pose = np.zeros((worlds, agents, 3))
-        flat = self.pose.reshape(-1, 3)
-        self._reader = physics.SpacePoses(flat, [b for w in arrangement.agents for b in w])
+        group = arrangement.group
+        self._readers = [
+            physics.SpacePoses(
+                self.pose[w : w + group].reshape(-1, 3),
+                [b for own in arrangement.agents[w : w + group] for b in own],
+            )
+            for w in range(0, worlds, group)
+        ]
         self._offsets = arrangement.offsets[:, None, :]
 
     def read(self) -> None:
-        self._reader.read()
+        for reader in self._readers:
+            reader.read()
         self.pose[:, :, :2] -= self._offsets
 
 
@@ -395,6 +413,7 @@ def time_row(sources: list[Template], steps: int, rounds: int, seed: int) -> Tim
     readers = {f"separate_{k}": SeparateReaders(built["separate"], k) for k in separate_kinds()}
     readers["tiled_batch"] = TiledReader(built["tiled"])
     readers["tiled_hash_batch"] = TiledReader(built["tiled_hash"])
+    readers["tiled_groups_batch"] = TiledReader(built["tiled_groups"])
     if "stacked" in built:
         readers["stacked_batch"] = TiledReader(built["stacked"])
     commands = _commands(sources, COMMANDS, seed)
