@@ -641,6 +641,69 @@ def _as_json(row: Row) -> dict:
     }
 
 
+def markdown(result: dict) -> str:
+    """The tables of docs/performance.md's "Many worlds in one space", from a run's JSON:
+    medians of the rounds (lowest-highest), us of CPU per world-step."""
+    physics_names = ["separate", "tiled", "tiled_groups", "tiled_hash", "stacked"]
+    head = "| worlds x agents | load | " + " | ".join(physics_names) + " | empty spaces |"
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for row in result["rows"]:
+        phys, sep = row["physics_summary"], row["physics_summary"]["separate"]["median"]
+        cells = []
+        for name in physics_names:
+            s = phys.get(name)
+            ratio = "" if name == "separate" or s is None else f", {sep / s['median']:.2f}x"
+            cells.append(
+                "-" if s is None else f"{s['median']:.1f} ({s['min']:.1f}-{s['max']:.1f}{ratio})"
+            )
+        empty = phys["empty_spaces"]
+        lines.append(
+            f"| {row['worlds']} x {row['agents']} | {row['load'][0]:.1f}-{row['load'][1]:.1f} | "
+            + " | ".join(cells)
+            + f" | {empty['median']:.1f} |"
+        )
+    readers = [
+        "separate_compiled",
+        "separate_attributes",
+        "separate_batch",
+        "tiled_batch",
+        "tiled_groups_batch",
+    ]
+    lines += [
+        "",
+        "| worlds x agents | " + " | ".join(readers) + " |",
+        "|---|" + "---|" * len(readers),
+    ]
+    for row in result["rows"]:
+        poses = row["poses_summary"]
+        cells = [f"{poses[n]['median']:.2f}" if n in poses else "-" for n in readers]
+        lines.append(f"| {row['worlds']} x {row['agents']} | " + " | ".join(cells) + " |")
+    lines += ["", TRAJECTORY_HEAD, "|" + "---|" * (TRAJECTORY_HEAD.count("|") - 1)]
+    seen = set()
+    for row in result["rows"]:
+        for pair, d in row["trajectories"].items():
+            worlds = min(row["worlds"], STUDY_WORLDS)  # the study takes the first ones
+            key = (row["scenario"], worlds, pair)
+            if not isinstance(d, dict) or key in seen or "hash" in pair:
+                continue
+            seen.add(key)
+            gaps = d["max_position_difference_at"]
+            lines.append(
+                f"| {row['scenario']} x {worlds} | {pair} | {d['worlds_bit_identical']} | "
+                f"{d['first_pose_difference_step'] or '-'} | {gaps.get('100', 0):.1e} | "
+                f"{gaps.get('500', 0):.1e} | {d['worlds_same_contacts_in_order']} | "
+                f"{d['worlds_same_contacts_as_sets']} | {d['worlds_same_item_contacts_in_order']} |"
+            )
+    return "\n".join(lines)
+
+
+TRAJECTORY_HEAD = (
+    "| worlds | pair | worlds bit-identical | first differing step | largest position "
+    "difference at step 100 | at step 500 | same contacts in order | same contacts as "
+    "sets | same item contacts in order |"
+)
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n\n")[0])
     parser.add_argument("--scenarios", default=",".join(SCENARIOS))
@@ -650,7 +713,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--study-steps", type=int, default=STUDY_STEPS)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    parser.add_argument("--table", type=Path, default=None, help="print a run's JSON as tables")
     args = parser.parse_args(argv)
+    if args.table is not None:
+        print(markdown(json.loads(args.table.read_text())))
+        return
     worlds = [int(w) for w in args.worlds.split(",")]
     scenarios = args.scenarios.split(",")
     if min(worlds) < 1 or args.steps < 1 or args.rounds < 1 or args.study_steps < 0:
