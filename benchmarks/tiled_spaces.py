@@ -38,12 +38,12 @@ in every arrangement. The arrangements are stepped in turn, ``STEPS`` steps each
 - ``poses``: reading the agents' poses (x, y, angle) of every world after the step: for
   the separate spaces through each reader of the bridge (``compiled``: struct reads of
   every world in one compiled call, when that tier is available; ``batch``: one
-  ``pymunk.batch`` read per space; ``attributes``), and for the tiled space one
-  ``pymunk.batch`` read of the whole space, less each world's offset.
+  ``pymunk.batch`` read per space; ``attributes``), and for the tiled arrangements one
+  ``pymunk.batch`` read per space, less each world's offset.
 
 Beside the timing, the trajectories: fresh copies of the row's first ``STUDY_WORLDS``
-worlds in the separate, tiled and tiled_hash arrangements and in ``separate_shifted`` (one
-space per world, moved by its tile's offset) run ``STUDY_STEPS`` steps of the same
+worlds in every timed arrangement and in ``separate_shifted`` (one space per world, moved
+by its tile's offset) run ``STUDY_STEPS`` steps of the same
 commands. Each pair of ``STUDIED`` is compared: the worlds whose poses differ in any bit,
 the step of the first difference, the largest difference of position at some steps, and
 the worlds whose contacts differ (in order, as a set per step, and agents against items
@@ -74,6 +74,7 @@ import numpy as np
 import pymunk
 
 from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.sensors import lists
 from flatland_ma.world import physics
 from flatland_ma.world.entities import CollisionType
 
@@ -95,6 +96,12 @@ GAP = 2.0
 bodies inside it, so any gap above one keeps worlds from touching."""
 COMMANDS = 16
 """Distinct steps of drawn commands the timing cycles through."""
+KINDS = ("separate", "separate_shifted", "tiled", "tiled_hash", "tiled_groups", "stacked")
+GROUP = 16
+"""Worlds per space in ``tiled_groups``."""
+STACKED_MAX = 27
+"""Worlds a stack can hold: the shape-filter category bits that flatland_ma's own
+categories (``Category``, five bits) leave free."""
 TIMED = ("separate", "tiled", "tiled_hash", "tiled_groups", "stacked")
 
 
@@ -114,7 +121,6 @@ STUDIED = (
 )
 """The pairs the study compares: (arrangement, against): against the separate spaces, and
 against separate spaces moved by the same offsets (what tiling changes beyond them)."""
-RESULTS = Path(__file__).resolve().parent / "results" / "tiled_spaces.json"
 
 
 # -- the worlds, copied out of the env ---------------------------------------------------
@@ -224,14 +230,6 @@ def _listen(space: pymunk.Space, owner: dict) -> None:
     on(CollisionType.AGENT, CollisionType.DOOR, begin=_recorder(owner, "door"))
 
 
-KINDS = ("separate", "separate_shifted", "tiled", "tiled_hash", "tiled_groups", "stacked")
-GROUP = 16
-"""Worlds per space in ``tiled_groups``."""
-STACKED_MAX = 27
-"""Worlds a stack can hold: the shape-filter category bits that flatland_ma's own
-categories (``Category``, five bits) leave free."""
-
-
 class Arrangement:
     """Copies of the worlds of ``sources``, arranged as ``kind`` says (the module's
     docstring; ``separate_shifted``: a space each, moved by the tiles' offsets).
@@ -256,6 +254,8 @@ class Arrangement:
         self.agents: list[list[pymunk.Body]] = []
         self.limits = [t.limits for t in sources]
         owner: dict = {}
+        self.world_of: dict[pymunk.Shape, int] = {}
+        """Each shape's world."""
         self.spaces: list[pymunk.Space] = []
         for k, source in enumerate(sources):
             if k % group == 0:
@@ -275,6 +275,7 @@ class Arrangement:
             space.add(*bodies, *shapes, *constraints)
             for shape, index in zip(shapes, source.entity):
                 owner[shape] = (self.logs[k], index)
+                self.world_of[shape] = k
             self.agents.append(agents)
         for space in self.spaces:
             _listen(space, owner)
@@ -284,16 +285,10 @@ class Arrangement:
         self._step = physics.stepper()
 
     def drive(self, commands: np.ndarray) -> None:
-        """Each agent's body: velocity ``commands[w, a, 0]`` of its top speed along its
-        heading, spin ``commands[w, a, 1]`` of its top turn rate (not timed)."""
+        """Clear the logs and drive every world's agents (``drive``; not timed)."""
         for w, agents in enumerate(self.agents):
             self.logs[w].clear()
-            row, limits = commands[w], self.limits[w]
-            for a, body in enumerate(agents):
-                speed = float(row[a, 0]) * limits[a][0]
-                angle = body.angle
-                body.velocity = (speed * math.cos(angle), speed * math.sin(angle))
-                body.angular_velocity = float(row[a, 1]) * limits[a][1]
+            drive(agents, self.limits[w], commands[w])
 
     def step(self) -> None:
         step, dt, substeps = self._step, self.dt, self.substeps
@@ -325,6 +320,20 @@ class EmptySpaces:
         step, dt, substeps = self._step, self.dt, self.substeps
         for space in self.spaces:
             step(space, dt, substeps)
+
+
+def drive(agents: list[pymunk.Body], limits: list, commands: np.ndarray) -> None:
+    """Each agent's body: velocity ``commands[a, 0]`` of its top speed along its heading,
+    spin ``commands[a, 1]`` of its top turn rate (``limits[a]``)."""
+    for a, body in enumerate(agents):
+        speed = float(commands[a, 0]) * limits[a][0]
+        angle = body.angle
+        body.velocity = (speed * math.cos(angle), speed * math.sin(angle))
+        body.angular_velocity = float(commands[a, 1]) * limits[a][1]
+
+
+def _own_poses(agents: list[pymunk.Body]) -> np.ndarray:
+    return np.array([(*b.position, b.angle) for b in agents])
 
 
 def _circles(space: pymunk.Space) -> list[pymunk.Circle]:
@@ -365,12 +374,14 @@ class SeparateReaders:
         self.pose = np.zeros((worlds, agents, 3))
         self.kind = kind
         if kind == "compiled":
-            from numba.typed import List
-
-            self._poses = List([self.pose[w] for w in range(worlds)])
-            self._bodies = List(
-                [np.array([physics.address(b) for b in w], np.intp) for w in arrangement.agents]
-            )
+            addresses = [
+                np.array([physics.address(b) for b in own], np.intp) for own in arrangement.agents
+            ]
+            self._poses = lists.filled(self.pose[0], worlds)
+            self._bodies = lists.filled(addresses[0], worlds)
+            for w in range(worlds):
+                lists.put(self._poses, w, self.pose[w])
+                lists.put(self._bodies, w, addresses[w])
             self._which = np.arange(worlds, dtype=np.intp)
             self._keep = arrangement.agents  # the structs live while their bodies do
         else:
@@ -410,6 +421,7 @@ def _commands(sources: list[Template], steps: int, seed: int) -> np.ndarray:
 def time_row(sources: list[Template], steps: int, rounds: int, seed: int) -> Timing:
     built: dict = {name: Arrangement(sources, name) for name in timed_arrangements(len(sources))}
     built["empty_spaces"] = EmptySpaces(sources)
+    readers: dict[str, SeparateReaders | TiledReader]
     readers = {f"separate_{k}": SeparateReaders(built["separate"], k) for k in separate_kinds()}
     readers["tiled_batch"] = TiledReader(built["tiled"])
     readers["tiled_hash_batch"] = TiledReader(built["tiled_hash"])
@@ -421,6 +433,8 @@ def time_row(sources: list[Template], steps: int, rounds: int, seed: int) -> Tim
         for k in range(WARM_STEPS):
             arrangement.drive(commands[k % COMMANDS])
             arrangement.step()
+    for reader in readers.values():  # compiled code loaded before the clock starts
+        reader.read()
     worlds = len(sources)
     timing = Timing({n: [] for n in built}, {n: [] for n in readers})
     for r in range(rounds):
@@ -551,17 +565,14 @@ def faithful(scenario: str, steps: int, seed: int = 0) -> bool:
         world = env.running.world
         source = template_of(world)
         copied = Arrangement([source], "separate")
-        original = Arrangement.__new__(Arrangement)
-        original.agents = [[agent.body for agent in world.agents]]
-        original.logs, original.limits = [[]], copied.limits
-        original.offsets = np.zeros((1, 2))
+        original = [agent.body for agent in world.agents]
         commands = _commands([source], steps, seed + 2)
         for k in range(steps):
-            original.drive(commands[k])
+            drive(original, source.limits, commands[k, 0])
             world.step()
             copied.drive(commands[k])
             copied.step()
-            if not np.array_equal(original.poses(), copied.poses()):
+            if not np.array_equal(_own_poses(original), copied.poses()[0]):
                 return False
         return True
     finally:
@@ -733,7 +744,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         result = {
-            "measured": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "measured": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             "pymunk": pymunk.version,
             "tier": physics.describe(),
             "cores": os.cpu_count(),

@@ -30,16 +30,19 @@ def test_tiles_lie_apart_and_hold_every_world():
         dx, dy = tiled.offsets[k]
         width, height = source.size
         boxes.append((dx, dy, dx + width, dy + height))
-    owner = {}
-    for k in range(len(sources)):
-        for body in tiled.agents[k]:
-            owner[body] = k
-    for shape in space.shapes:
-        shape.cache_bb()
     for k, (x0, y0, x1, y1) in enumerate(boxes):
         for j, (u0, v0, u1, v1) in enumerate(boxes):
             if j != k:
                 assert x1 < u0 or u1 < x0 or y1 < v0 or v1 < y0
+    # Every shape (its bounding box; the walls stand up to 10 units outside the arena)
+    # lies in the tile of its own world, and none reaches another's.
+    margin = 10.0
+    assert len(tiled.world_of) == len(space.shapes)
+    for shape in space.shapes:
+        x0, y0, x1, y1 = boxes[tiled.world_of[shape]]
+        bb = shape.cache_bb()
+        assert x0 - margin <= bb.left and bb.right <= x1 + margin
+        assert y0 - margin <= bb.bottom and bb.top <= y1 + margin
     for agents, (x0, y0, x1, y1) in zip(tiled.agents, boxes):
         for body in agents:
             x, y = body.position
