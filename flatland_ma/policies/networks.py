@@ -122,7 +122,7 @@ class ImageInput(nn.Module):
 
 def unfolded_conv1d(x: torch.Tensor, conv: nn.Conv1d) -> torch.Tensor:
     """``conv(x)`` (no padding, no dilation) as one matrix product over the input's
-    windows. Without gradients it takes 0.4-0.7x the time of oneDNN's convolution at the
+    windows. Without gradients it takes 0.4-0.8x the time of oneDNN's convolution at the
     batches of an acting pass (16-512 rows of a 64-ray image, one thread); with them its
     backward pass is slower, so training keeps ``conv``. The same sums in another order:
     equal to about 1e-6."""
