@@ -28,11 +28,10 @@ import gymnasium
 import numba as nb
 import numpy as np
 import torch
-from torch import nn
 from torch.utils._pytree import tree_leaves, tree_map
 
 from baselines.networks import Agent
-from baselines.ppo_loss import ppo_loss
+from baselines.ppo_loss import descend
 
 
 def keep_freed_memory() -> bool:
@@ -109,24 +108,8 @@ def update(
             x = tree_map(lambda x, index=index: x[index], b_x)
             state = None if b_states is None else b_states[index]
             _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
-            loss, parts = ppo_loss(
-                args.clip_coef,
-                args.vf_coef,
-                args.ent_coef,
-                new_logprob,
-                entropy,
-                new_value,
-                b_logprobs[index],
-                b_advantages[index],
-                b_returns[index],
-                b_values[index],
-            )
-            if penalty is not None:  # e.g. EWC's pull towards earlier tasks' parameters
-                loss = loss + penalty()
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
-            optimizer.step()
+            old = (b_logprobs[index], b_advantages[index], b_returns[index], b_values[index])
+            parts = descend(agent, optimizer, args, (new_logprob, entropy, new_value), old, penalty)
             if epoch == args.update_epochs - 1:
                 for key, value in parts.items():
                     stats.setdefault(key, []).append(value)

@@ -4,6 +4,7 @@ own way (``baselines.ppo_memory``'s sequences of slots, or steps with their fram
 from __future__ import annotations
 
 import torch
+from torch import nn
 
 
 def ppo_loss(
@@ -43,3 +44,19 @@ def ppo_loss(
             "losses/clip_fraction": ((ratio - 1).abs() > clip_coef).float().mean(),
         }
     return loss, parts
+
+
+def descend(agent, optimizer, args, decided, old, penalty=None) -> dict[str, torch.Tensor]:
+    """One gradient step on a minibatch: ``ppo_loss`` of what the network now ``decided``
+    (log-probabilities, entropies, values) against the rollout's ``old`` (log-probabilities,
+    advantages, returns, values), plus ``penalty()`` if given (e.g. EWC's pull towards
+    earlier tasks' parameters); gradients clipped to ``args.max_grad_norm``. Returns the
+    loss's parts."""
+    loss, parts = ppo_loss(args.clip_coef, args.vf_coef, args.ent_coef, *decided, *old)
+    if penalty is not None:
+        loss = loss + penalty()
+    optimizer.zero_grad(set_to_none=True)
+    loss.backward()
+    nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
+    optimizer.step()
+    return parts

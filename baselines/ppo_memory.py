@@ -26,12 +26,11 @@ from __future__ import annotations
 
 import numpy as np
 import torch
-from torch import nn
 from torch.utils._pytree import tree_leaves, tree_map
 
 from baselines.networks import Agent
 from baselines.ppo_learner import Rollout, gae
-from baselines.ppo_loss import ppo_loss
+from baselines.ppo_loss import descend
 from flatland_ma.policies.memory import Memory, each, gather_stacks, stack_indices
 
 
@@ -172,24 +171,8 @@ def update(
         for h, entries in rollout.minibatches(agent, args.num_minibatches, generator):
             state = None if states is None else states[entries]
             _, new_logprob, entropy, new_value = agent.decide(h, actions[entries], state)
-            loss, parts = ppo_loss(
-                args.clip_coef,
-                args.vf_coef,
-                args.ent_coef,
-                new_logprob,
-                entropy,
-                new_value,
-                logprobs[entries],
-                advantages[entries],
-                returns[entries],
-                values[entries],
-            )
-            if penalty is not None:
-                loss = loss + penalty()
-            optimizer.zero_grad(set_to_none=True)
-            loss.backward()
-            nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)
-            optimizer.step()
+            old = (logprobs[entries], advantages[entries], returns[entries], values[entries])
+            parts = descend(agent, optimizer, args, (new_logprob, entropy, new_value), old, penalty)
             if epoch == args.update_epochs - 1:
                 for key, value in parts.items():
                     stats.setdefault(key, []).append(float(value))
