@@ -211,11 +211,9 @@ class Rollout:
         """The value of what the rollout's last step returned."""
         return agent.value(tree_map(torch.from_numpy, observation), state)
 
-    def learn(self, agent: Agent, optimizer, args, penalty=None, generator=None) -> dict:
-        """GAE, bootstrapped from the value of what the rollout's last step returned (by
-        the policy that acted), then PPO's epochs (``update``) with minibatches drawn from
-        ``generator``, and ``penalty()`` added to the loss if given."""
-        advantages = gae(
+    def advantages(self, args) -> torch.Tensor:
+        """GAE over the rollout, bootstrapped from ``next_value``."""
+        return gae(
             self.rewards,
             self.values,
             self.ends,
@@ -224,6 +222,12 @@ class Rollout:
             args.gamma,
             args.gae_lambda,
         )
+
+    def learn(self, agent: Agent, optimizer, args, penalty=None, generator=None) -> dict:
+        """GAE, bootstrapped from the value of what the rollout's last step returned (by
+        the policy that acted), then PPO's epochs (``update``) with minibatches drawn from
+        ``generator``, and ``penalty()`` added to the loss if given."""
+        advantages = self.advantages(args)
         return update(
             agent,
             optimizer,

@@ -29,7 +29,7 @@ import torch
 from torch.utils._pytree import tree_leaves, tree_map
 
 from baselines.networks import Agent
-from baselines.ppo_learner import Rollout, gae
+from baselines.ppo_learner import Rollout
 from baselines.ppo_loss import descend
 from flatland_ma.policies.memory import Memory, each, gather_stacks, stack_indices
 
@@ -102,15 +102,7 @@ class MemoryRollout(Rollout):
         """GAE bootstrapped from the value of what the rollout's last step returned, then
         PPO's epochs over sequences of slots (with a recurrent core) or over steps, the
         minibatches drawn from ``generator``."""
-        advantages = gae(
-            self.rewards,
-            self.values,
-            self.ends,
-            self.stops,
-            self.next_value,
-            args.gamma,
-            args.gae_lambda,
-        )
+        advantages = self.advantages(args)
         if self.k > 1:
             self.index = stack_indices(self.starts, self.k)
         returns = advantages + self.values
