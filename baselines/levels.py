@@ -164,15 +164,27 @@ def read_levels(root: Path = LEVELS_OUT) -> dict[str, list[dict]]:
     return found
 
 
-SHOWN = ("preset", "num_envs", "torch_threads", "team_reward", "shaping", "curriculum")
+SHOWN = (
+    "preset",
+    "num_envs",
+    "torch_threads",
+    "overlap",
+    "memory",
+    "frames",
+    "team_reward",
+    "shaping",
+    "curriculum",
+)
 """The run options the page names (beside the task's defaults)."""
+QUIET = {"memory": "none", "frames": 1}
+"""Values of those options that are their defaults, named on no page."""
 
 
 def _options(options: dict) -> str:
     shown = []
     for key in SHOWN:
         value = options.get(key)
-        if value not in (None, "", False, 0, 0.0):
+        if value not in (None, "", False, 0, 0.0) and value != QUIET.get(key):
             shown.append(f"`{key}` {Path(value).name if key == 'curriculum' else value}")
     return ", ".join(shown) or "defaults"
 
