@@ -132,6 +132,16 @@ def make_kind(cls: type, where: str, values: dict, make: Callable, *args, **kwar
         ) from err
 
 
+def made_from_spec(made, base: type, cls: type, where: str):
+    """``made``, which ``cls.from_spec`` returned for the entry at ``where``, if it is a
+    ``base`` (a ``Part``, a ``Sensor``); else an ``ExtensionError`` naming the class."""
+    if not isinstance(made, base):
+        raise ExtensionError(
+            f"{where}: {describe_kind(cls)}.from_spec returned {made!r:.80}, not a {base.__name__}"
+        )
+    return made
+
+
 def fault_in_extension(err: BaseException) -> str | None:
     """Where in a user's kind ``err`` was raised (its innermost frame in a package that
     defines a kind registered from outside this one), as ``module.function (file, line

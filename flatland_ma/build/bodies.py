@@ -16,7 +16,7 @@ import pymunk
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Link, Part, agent_filter
-from flatland_ma.registry import ExtensionError, describe_kind, make_kind
+from flatland_ma.registry import ExtensionError, made_from_spec, make_kind
 from flatland_ma.scenario.spec_agent import AgentSpec, ChannelSpec
 from flatland_ma.sensors.hearing import Hearing
 from flatland_ma.sensors.noise import Noise
@@ -63,10 +63,7 @@ def make_parts(agent: AgentSpec) -> list[Part]:
         kind = PART_KINDS[entry.type]
         where = f"an agent's parts[{k}]"
         part = make_kind(kind, where, values, kind.from_spec, values, agent)
-        if not isinstance(part, Part):
-            raise ExtensionError(
-                f"{where}: {describe_kind(kind)}.from_spec returned {part!r:.80}, not a Part"
-            )
+        part = made_from_spec(part, Part, kind, where)
         part.label = part.label or f"parts[{k}]"
         parts.append(part)
     for kind in PART_KINDS.every():  # any other kind the agent declares
@@ -102,10 +99,7 @@ def make_sensors(
         kind = SENSOR_KINDS[spec.type]
         where = f"an agent's sensors[{k}]"
         sensor = make_kind(kind, where, values, kind.from_spec, values, parts)
-        if not isinstance(sensor, Sensor):
-            raise ExtensionError(
-                f"{where}: {describe_kind(kind)}.from_spec returned {sensor!r:.80}, not a Sensor"
-            )
+        sensor = made_from_spec(sensor, Sensor, kind, where)
         if spec.noise is not None and spec.noise.active:
             sensor.noise = Noise(**spec.noise.model_dump())
         sensors.append(sensor)
