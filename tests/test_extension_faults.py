@@ -219,3 +219,19 @@ def test_an_unknown_kind_says_how_kinds_are_added(found):
     assert kind == "ScenarioError" and "unknown sensor 'item_radar'" in message
     assert "entry point in the group 'flatland_ma.extensions'" in message
     assert "flatland_ma.register(spec, class)" in message
+
+
+def test_a_from_spec_that_returns_no_instance_is_named_with_its_class():
+    from flatland_ma.agents.parts import Part
+    from flatland_ma.registry import ExtensionError, made_from_spec
+    from flatland_ma.sensors.sensor import Sensor
+
+    class Lamp:  # from_spec returned something else than a Part or a Sensor
+        pass
+
+    lamp = Lamp()
+    assert made_from_spec(lamp, Lamp, Lamp, "an agent's parts[0]") is lamp
+    with pytest.raises(ExtensionError, match=r"parts\[0\]: .*Lamp.*returned None, not a Part"):
+        made_from_spec(None, Part, Lamp, "an agent's parts[0]")
+    with pytest.raises(ExtensionError, match=r"sensors\[2\]: .*Lamp.*, not a Sensor"):
+        made_from_spec(lamp, Sensor, Lamp, "an agent's sensors[2]")
