@@ -169,10 +169,9 @@ def _queue_sources(blocked, width, sources, reach, dist, pivot, base, cells, que
 
 @nb.njit(cache=True)
 def _search(blocked, table, width, reach, dist, pivot, base, cells, queued_at, after, waiting):
-    """Take the cells queued in the first ``waiting`` entries, and every cell they make
-    shorter, nearest first to within a cell (``_start_queue`` tells how). Each offers its
-    neighbours its own pivot if they see it, else a bend in it (``_bend``); a neighbour
-    made shorter joins the queue again. False if the entries run out."""
+    """Take the ``waiting`` queued cells and those they make shorter, nearest first (see
+    ``_start_queue``); each offers its neighbours its pivot if they see it, else a bend in
+    it (``_bend``). False if the entries run out."""
     heads = np.full(2 * BUCKETS, -1, np.int64)
     unused = _start_queue(heads, after, waiting)
     level = 0
@@ -187,7 +186,8 @@ def _search(blocked, table, width, reach, dist, pivot, base, cells, queued_at, a
         k, when = cells[e], queued_at[e]
         after[e], unused = unused, e
         waiting -= 1
-        if when != dist[k]:
+        d = dist[k]
+        if when != d:
             continue  # the cell was queued again since, shorter
         i = k // width
         cx, cy = k - i * width + 0.5, i + 0.5
@@ -207,7 +207,7 @@ def _search(blocked, table, width, reach, dist, pivot, base, cells, queued_at, a
                 if _sees(blocked, table, width, px, py, ex, ey):
                     new, npx, npy, nb_ = b + _norm(gx, gy), px, py, b
                 else:
-                    new, npx, npy, nb_ = _bend(blocked, table, width, dist, k, di, dj, b, px, py)
+                    new, npx, npy, nb_ = _bend(blocked, table, width, d, k, di, dj, b, px, py)
                     if new >= dist[n] - 1e-9:
                         continue
                 if new > reach:
@@ -248,16 +248,15 @@ def _start_queue(heads, after, waiting):
 
 
 @nb.njit(cache=True)
-def _bend(blocked, table, width, dist, k, di, dj, b, px, py):
+def _bend(blocked, table, width, d, k, di, dj, b, px, py):
     """Where the path from the pivot (px, py), ``b`` from the sources, to the centre of
     the cell di rows and dj columns from cell k bends in cell k when it does not see the
     pivot: at the corner of cell k that touches blocked cells and sees both the pivot and
-    that centre (the shortest such), else at cell k's centre. Returns (length, bend x,
-    bend y, the bend's distance from the sources)."""
+    that centre (the shortest such), else at cell k's centre, ``d`` from the sources.
+    Returns (length, bend x, bend y, the bend's distance from the sources)."""
     i = k // width
     cx, cy = k - i * width + 0.5, i + 0.5
     ex, ey = cx + dj, cy + di
-    d = dist[k]
     new, npx, npy, nb_ = d + (SQRT2 if di != 0 and dj != 0 else 1.0), cx, cy, d
     for oy in (-1, 1):
         for ox in (-1, 1):
