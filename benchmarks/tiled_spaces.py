@@ -77,6 +77,7 @@ from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.sensors import lists
 from flatland_ma.world import physics
 from flatland_ma.world.entities import CollisionType
+from flatland_ma.world.poses import AttributePoses, SpacePoses
 
 SCENARIOS = ("fruits_poisons", "fruits_poisons_multi")
 WORLDS = (16, 256, 1024)
@@ -352,7 +353,7 @@ class TiledReader:
         self.pose = np.zeros((worlds, agents, 3))
         group = arrangement.group
         self._readers = [
-            physics.SpacePoses(
+            SpacePoses(
                 self.pose[w : w + group].reshape(-1, 3),
                 [b for own in arrangement.agents[w : w + group] for b in own],
             )
@@ -385,7 +386,7 @@ class SeparateReaders:
             self._which = np.arange(worlds, dtype=np.intp)
             self._keep = arrangement.agents  # the structs live while their bodies do
         else:
-            make = physics.SpacePoses if kind == "batch" else physics.AttributePoses
+            make = SpacePoses if kind == "batch" else AttributePoses
             self._readers = [make(self.pose[w], b) for w, b in enumerate(arrangement.agents)]
 
     def read(self) -> None:

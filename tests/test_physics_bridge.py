@@ -14,8 +14,8 @@ import pytest
 
 import flatland_ma
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.world import physics
-from flatland_ma.world.physics import Tier
+from flatland_ma.world import physics, poses
+from flatland_ma.world.tier import Tier, chosen
 from tests.trajectories import MAX_CYCLES, load, own_spaces, replay_batch, replay_single
 
 PACKAGE = Path(flatland_ma.__file__).parent
@@ -79,9 +79,9 @@ def test_a_tier_of_no_name_fails_and_no_tier_beyond_the_best_is_given():
     wrong = _import_with("fastest")
     assert wrong.returncode != 0
     assert "FLATLAND_MA_PHYSICS='fastest': one of attributes, batch, compiled" in wrong.stderr
-    assert physics._chosen(Tier.BATCH, "compiled") is Tier.BATCH
-    assert physics._chosen(Tier.COMPILED, "Batch") is Tier.BATCH
-    assert physics._chosen(Tier.COMPILED, None) is Tier.COMPILED
+    assert chosen(Tier.BATCH, "compiled") is Tier.BATCH
+    assert chosen(Tier.COMPILED, "Batch") is Tier.BATCH
+    assert chosen(Tier.COMPILED, None) is Tier.COMPILED
 
 
 def test_poses_read_through_pymunk_batch_are_the_attributes_through_changes():
@@ -93,10 +93,10 @@ def test_poses_read_through_pymunk_batch_are_the_attributes_through_changes():
         space.add(body, pymunk.Circle(body, 0.5))
         bodies.append(body)
     space.add(pymunk.Body(body_type=pymunk.Body.KINEMATIC))  # a body not asked about
-    batch = physics.SpacePoses(np.zeros((6, 3)), bodies)
-    plain = physics.AttributePoses(np.zeros((6, 3)), bodies)
-    assert isinstance(physics.poses_of(np.zeros((6, 3)), bodies), physics.SpacePoses)
-    assert isinstance(physics.poses_of(np.zeros((2, 3)), bodies[:2]), physics.AttributePoses)
+    batch = poses.SpacePoses(np.zeros((6, 3)), bodies)
+    plain = poses.AttributePoses(np.zeros((6, 3)), bodies)
+    assert isinstance(poses.poses_of(np.zeros((6, 3)), bodies), poses.SpacePoses)
+    assert isinstance(poses.poses_of(np.zeros((2, 3)), bodies[:2]), poses.AttributePoses)
     for change in (None, "remove", "add"):
         if change == "remove":
             space.remove(bodies[2])  # retired: read through its attributes

@@ -26,7 +26,7 @@ import pymunk
 
 from flatland_ma.agents.body import AgentBody
 from flatland_ma.sensors.lists import filled, put
-from flatland_ma.world import physics
+from flatland_ma.world import physics, poses
 from flatland_ma.world.physics import (
     angle_at,
     set_spin_at,
@@ -140,7 +140,7 @@ class Poses:
     when world ``w`` gets a new episode (``pose``: its (bodies, 3) array, filled as
     ``Geometry.refresh_poses`` fills it), ``read(which)`` for the worlds ``which``: in the
     physics bridge's compiled tier in one compiled call, in its batch tier world by world
-    (``physics.poses_of``). ``fits()``: whether the tier in use reads poses."""
+    (``poses.poses_of``). ``fits()``: whether the tier in use reads poses."""
 
     def __init__(self, worlds: int):
         self._compiled = physics.TIER is physics.Tier.COMPILED
@@ -148,7 +148,7 @@ class Poses:
         self._bodies = filled(np.zeros(0, np.intp), worlds)
         self._keep: list[list] = [[] for _ in range(worlds)]
         """Each world's bodies: their structs live while they are referenced here."""
-        self._spaces: list[physics.SpacePoses | physics.AttributePoses | None] = [None] * worlds
+        self._spaces: list[poses.SpacePoses | poses.AttributePoses | None] = [None] * worlds
 
     @staticmethod
     def fits() -> bool:
@@ -156,7 +156,7 @@ class Poses:
 
     def place(self, w: int, pose: np.ndarray, bodies: list[pymunk.Body]) -> None:
         if not self._compiled:
-            self._spaces[w] = physics.poses_of(pose, bodies)
+            self._spaces[w] = poses.poses_of(pose, bodies)
             return
         self._keep[w] = list(bodies)
         put(self._poses, w, pose)

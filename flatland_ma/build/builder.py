@@ -36,13 +36,13 @@ from flatland_ma.build.layout import explicit_layout
 from flatland_ma.build.reach import reachable_region
 from flatland_ma.registry import make_kind
 from flatland_ma.scenario.errors import SpecError
-from flatland_ma.scenario.schema import ScenarioSpec
+from flatland_ma.scenario.schema import ChannelSpec, ScenarioSpec
 from flatland_ma.sensors.sensor import Sensor
 from flatland_ma.sensors.suite import Sensors
 from flatland_ma.tasks.rule import RULE_KINDS, Rule, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
 from flatland_ma.world.channel import Channel
-from flatland_ma.world.entities import Door, Entity, Item
+from flatland_ma.world.entities import Door, Entity, Item, ItemGroup
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.placement import PlacementError, Placer, ResetBudget
 from flatland_ma.world.world import SiteMark, World
@@ -194,22 +194,7 @@ def populate(
     kept = site.mark is not None
     bodies = _place_agents(spec, world, placer, rng, site.agents if kept else [])
     groups = [item_group(item, g) for g, item in enumerate(spec.items)]
-    before = iter(site.items if kept else ())
-    items: list[Item] = []
-    for g, item in enumerate(spec.items):
-        if item.positions is not None:
-            for x, y in item.positions:
-                items.append(make_item(item, groups[g], x, y, (x, y), next(before, None)))
-                world.add(items[-1])
-            continue
-        for k in range(item.count):
-            if item.spawn is not None:
-                path = ("items", g, "spawn")
-            else:
-                path = ("items", g, "radius" if k == 0 else "count")
-            x, y = _place(placer, rng, item.radius, item.spawn, path, "item")
-            items.append(make_item(item, groups[g], x, y, reuse=next(before, None)))
-            world.add(items[-1])
+    items = _place_items(spec, site, rng, groups, site.items if kept else [])
     if kept:
         site.agents, site.items = bodies, items
     for zone in spec.zones:
@@ -217,16 +202,7 @@ def populate(
     placer.budget = None  # the reset is done; respawns are bounded one by one
 
     if spec.channel is not None:
-        channel = spec.channel
-        teams = [getattr(spec.team_of(i), "name", None) for i in range(spec.n_agents)]
-        world.channel = Channel(
-            spec.n_agents,
-            channel.tokens,
-            channel.vocabulary,
-            channel.range,
-            teams if channel.team else None,
-        )
-        world.channel.bodies = bodies
+        world.channel = _channel(spec, spec.channel, bodies)
     eyes: list[Entity] = [
         b.head if s.mount == "head" else b for b, own in zip(bodies, sensors) for s in own
     ]
@@ -250,6 +226,49 @@ def populate(
     episode = spec.episode
     task = Task(ctx, extra, episode.shared_end, episode.end_when_eaten)
     return Episode(world, bodies, suite, task, site.grid, placer, hands, site.doors, eyes, site)
+
+
+def _place_items(
+    spec: ScenarioSpec,
+    site: Site,
+    rng: np.random.Generator,
+    groups: list[ItemGroup],
+    before: list[Item],
+) -> list[Item]:
+    """Each item group's items, at their given positions or drawn at random (in its spawn
+    area if it has one), added to the world; ``before``, the items of the last episode of
+    the same site, are reused in order."""
+    reused = iter(before)
+    items: list[Item] = []
+    for g, item in enumerate(spec.items):
+        if item.positions is not None:
+            for x, y in item.positions:
+                items.append(make_item(item, groups[g], x, y, (x, y), next(reused, None)))
+                site.world.add(items[-1])
+            continue
+        for k in range(item.count):
+            if item.spawn is not None:
+                path = ("items", g, "spawn")
+            else:
+                path = ("items", g, "radius" if k == 0 else "count")
+            x, y = _place(site.placer, rng, item.radius, item.spawn, path, "item")
+            items.append(make_item(item, groups[g], x, y, reuse=next(reused, None)))
+            site.world.add(items[-1])
+    return items
+
+
+def _channel(spec: ScenarioSpec, channel: ChannelSpec, bodies: list[AgentBody]) -> Channel:
+    """The message channel between the agents (within each team only, if ``team``)."""
+    teams = [getattr(spec.team_of(i), "name", None) for i in range(spec.n_agents)]
+    made = Channel(
+        spec.n_agents,
+        channel.tokens,
+        channel.vocabulary,
+        channel.range,
+        teams if channel.team else None,
+    )
+    made.bodies = bodies
+    return made
 
 
 def _make_rule(k: int, rule) -> Rule:

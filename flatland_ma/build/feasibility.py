@@ -34,7 +34,7 @@ def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> Sce
     """Load a scenario (by name, path or spec) and run every check on it; raise
     ``ScenarioError`` naming the file, line and key of each fault found."""
     spec = scenario if isinstance(scenario, ScenarioSpec) else load_scenario(scenario, **overrides)
-    key = (spec._origin[0], spec.model_dump_json())
+    key = (spec.source, spec.model_dump_json())
     if key in _passed:
         return spec
     try:
@@ -48,10 +48,10 @@ def check_scenario(scenario: str | Path | ScenarioSpec, **overrides: Any) -> Sce
         where = fault_in_extension(err)
         if where is not None:  # a user's kind: its code's fault, not the file's or ours
             raise ExtensionError(
-                f"an extension's code failed while checking {spec._origin[0]}: "
+                f"an extension's code failed while checking {spec.source}: "
                 f"{type(err).__name__}: {err}, raised in {where}"
             ) from err
-        source = spec._origin[0]
+        source = spec.source
         message = f"internal error while checking ({type(err).__name__}: {err}); please report it"
         raise ScenarioError([Problem(source, None, (), message)]) from err
     _passed[key] = None

@@ -38,7 +38,7 @@ from flatland_ma.policies.references import (
 from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError, locate
 from flatland_ma.scenario.loader import file_text
 from flatland_ma.scenario.messages import problems_from
-from flatland_ma.scenario.types import Spec
+from flatland_ma.scenario.types import FileSpec, Spec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
 SUITES = "flatland_ma.scenarios"
@@ -66,7 +66,7 @@ class TaskSpec(Spec):
     """Keyword overrides of the scenario, as ``load_scenario`` takes them."""
 
 
-class SuiteSpec(Spec):
+class SuiteSpec(FileSpec):
     description: Annotated[str, Field(strict=True, max_length=1000)] = ""
     """What the suite measures."""
     training: Annotated[tuple[PolicyName, ...], Field(max_length=64)] = ()
@@ -74,7 +74,7 @@ class SuiteSpec(Spec):
     tasks: Annotated[tuple[TaskSpec, ...], Field(min_length=1, max_length=256)]
     """The tasks, each scored and reported on its own and aggregated."""
     _origin: tuple[str, Marks] = PrivateAttr(default=("<suite>", {}))
-    """The file it was read from, and the line of every key path (for located faults)."""
+    """As ``FileSpec``'s, named ``<suite>`` until it is read from a file."""
 
     @model_validator(mode="after")
     def _held_out(self):
@@ -94,8 +94,7 @@ class SuiteSpec(Spec):
 
     def fault(self, path: tuple, message: str) -> ScenarioError:
         """A fault at ``path`` of this suite, located in its file (file, line, key path)."""
-        source, marks = self._origin
-        return ScenarioError([locate(marks, path, message, source)])
+        return ScenarioError([locate(self.marks, path, message, self.source)])
 
 
 def suite_dir() -> Path:
@@ -123,7 +122,7 @@ def load_suite(name: str | Path) -> SuiteSpec:
         suite = SuiteSpec.model_validate(raw)
     except ValidationError as err:
         raise ScenarioError(problems_from(err.errors(), SuiteSpec, raw, marks, source)) from None
-    suite._origin = (source, marks)
+    suite.read_from(source, marks)
     resolve(suite, path)
     return suite
 

@@ -279,7 +279,7 @@ def _checked(name: str, spec: StreamSpec, marks: Marks, source: str) -> Stream:
             raise fault((*key, *err.path), str(err)) from None
         scenarios.append(scenario)
     stream = Stream(name, spec, scenarios, source, focal)
-    _same_spaces(stream, entries, fault)
+    _same_spaces(scenarios, focal, entries, fault)
     return stream
 
 
@@ -290,11 +290,14 @@ def task_scenario_file(name: str, stream_file: Path) -> Path | str:
     return beside if name and os.path.lexists(beside) else name
 
 
-def _same_spaces(stream: Stream, entries, fault) -> None:
+def _same_spaces(scenarios: list[ScenarioSpec], focals: list[list[int]], entries, fault) -> None:
+    """Whether the learner's agents (``focals``, per task) observe and act alike in every
+    task, under the same names, and each background policy can drive its agents; raises
+    ``fault`` at the task's key where not."""
     from flatland_ma.envs.parallel import FlatlandParallelEnv
 
     first = None
-    for (key, task), scenario, focal in zip(entries, stream.scenarios, stream._focal):
+    for (key, task), scenario, focal in zip(entries, scenarios, focals):
         env = FlatlandParallelEnv(scenario)
         names = [env.possible_agents[i] for i in focal]
         spaces = {

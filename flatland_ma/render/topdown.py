@@ -213,6 +213,9 @@ class Renderer:
         return ((x + self.margin) * self.scale * k, (height - y + self.margin) * self.scale * k)
 
     def _map(self, episode, focus: int | None = None) -> Image.Image:
+        """The arena from above: zones, then every field of view, then the entities, then
+        each agent's heading (agent ``focus`` ringed); drawn ``SUPERSAMPLE`` times its
+        size, then shrunk."""
         k = SUPERSAMPLE
         size = (self.map_size[0] * k, self.map_size[1] * k)
         image = Image.new("RGB", size, _rgb255(self.spec.arena.floor_color))
@@ -226,8 +229,19 @@ class Renderer:
                 x0, y0, x1, y1 = zone.rect
                 corners = [px((x0, y1)), px((x1, y0))]
                 draw.rectangle(corners, fill=(*_rgb255(zone.color), ZONE_ALPHA))
+        self._draw_views(draw, px, episode)
+        for entity in episode.world.entities:
+            if entity.visible:
+                self._draw_entity(draw, px, entity)
+        for i, body in enumerate(episode.bodies):
+            if body.visible:
+                self._draw_heading(draw, px, body, ringed=i == focus)
+        return image.reduce(k)  # the mean of each k x k square: smooth edges, cheaply
 
-        sensors = episode.sensors
+    def _draw_views(self, draw, px, episode) -> None:
+        """What each visible agent's ray sensors see: a fan from the eye to where its rays
+        end, or, for a sensor that sees all around (a lidar), a dot where each ends."""
+        sensors, k = episode.sensors, SUPERSAMPLE
         for i, body in enumerate(episode.bodies):
             if not body.visible:
                 continue
@@ -250,44 +264,44 @@ class Renderer:
                     for x, y in points:
                         draw.ellipse((x - dot, y - dot, x + dot, y + dot), fill=colour)
 
-        for entity in episode.world.entities:
-            if not entity.visible:
-                continue
-            texture = entity.texture
-            fill = _rgb255(entity.color if texture is None else texture.colors[0])
-            textured = texture is not None and not texture.plain
-            for shape in entity.shapes:
-                body = entity.body if shape.body is None else shape.body
-                if isinstance(shape, pymunk.Circle):
-                    cx, cy = px(body.local_to_world(shape.offset))
-                    r = shape.radius * self.scale * k
-                    draw.ellipse((cx - r, cy - r, cx + r, cy + r), fill=fill, outline=(0, 0, 0))
-                    if textured:
-                        centre = body.local_to_world(shape.offset)
-                        self._draw_texture(draw, px, texture, _circle_outline(shape), centre)
-                elif isinstance(shape, pymunk.Poly):
-                    pts = [body.local_to_world(v) for v in shape.get_vertices()]
-                    draw.polygon([px(p) for p in pts], fill=fill, outline=(0, 0, 0))
-                    if textured:
-                        self._draw_texture(draw, px, texture, _polygon_outline(pts), None)
+    def _draw_entity(self, draw, px, entity) -> None:
+        """An entity's shapes, filled with its colour (or its texture's first colour) and
+        outlined in black, a textured surface painted along the outline."""
+        texture = entity.texture
+        fill = _rgb255(entity.color if texture is None else texture.colors[0])
+        textured = texture is not None and not texture.plain
+        for shape in entity.shapes:
+            body = entity.body if shape.body is None else shape.body
+            if isinstance(shape, pymunk.Circle):
+                cx, cy = px(body.local_to_world(shape.offset))
+                r = shape.radius * self.scale * SUPERSAMPLE
+                draw.ellipse((cx - r, cy - r, cx + r, cy + r), fill=fill, outline=(0, 0, 0))
+                if textured:
+                    centre = body.local_to_world(shape.offset)
+                    self._draw_texture(draw, px, texture, _circle_outline(shape), centre)
+            elif isinstance(shape, pymunk.Poly):
+                pts = [body.local_to_world(v) for v in shape.get_vertices()]
+                draw.polygon([px(p) for p in pts], fill=fill, outline=(0, 0, 0))
+                if textured:
+                    self._draw_texture(draw, px, texture, _polygon_outline(pts), None)
 
-        for i, body in enumerate(episode.bodies):
-            if not body.visible:
-                continue
-            x, y = body.body.position
-            a = body.body.angle
-            r = body.shapes[0].radius
-            draw.line(
-                [px((x, y)), px((x + r * math.cos(a), y + r * math.sin(a)))],
-                fill=(0, 0, 0),
-                width=2 * k,
-            )
-            if i == focus:
-                cx, cy = px((x, y))
-                ring = (r + 3) * self.scale * k
-                box = (cx - ring, cy - ring, cx + ring, cy + ring)
-                draw.ellipse(box, outline=FOCUS_COLOR, width=2 * k)
-        return image.reduce(k)  # the mean of each k x k square: smooth edges, cheaply
+    def _draw_heading(self, draw, px, body, ringed: bool) -> None:
+        """A line from an agent's centre to its rim, the way it faces; a ring round it if
+        ``ringed``."""
+        k = SUPERSAMPLE
+        x, y = body.body.position
+        a = body.body.angle
+        r = body.shapes[0].radius
+        draw.line(
+            [px((x, y)), px((x + r * math.cos(a), y + r * math.sin(a)))],
+            fill=(0, 0, 0),
+            width=2 * k,
+        )
+        if ringed:
+            cx, cy = px((x, y))
+            ring = (r + 3) * self.scale * k
+            box = (cx - ring, cy - ring, cx + ring, cy + ring)
+            draw.ellipse(box, outline=FOCUS_COLOR, width=2 * k)
 
     def _draw_texture(self, draw, px, texture, outline, centre) -> None:
         """Paint the surface as rays see it: its texture along the outline (as thin bands

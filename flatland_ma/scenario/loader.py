@@ -94,7 +94,7 @@ def _load(name: str | Path, overrides: dict, source: str) -> ScenarioSpec:
     if plain:
         raw = merge(raw, plain, marks, (), OVERRIDES)
     spec = validate(raw, marks, fallback=source)
-    spec._origin = (source, marks)
+    spec.read_from(source, marks)
     return spec
 
 

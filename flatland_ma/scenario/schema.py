@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import Field, PrivateAttr, model_validator
+from pydantic import Field, model_validator
 
 from flatland_ma.scenario.bounds import check_bounds
 from flatland_ma.scenario.budget import MAX_GROUPS, check_budget
@@ -53,7 +53,7 @@ from flatland_ma.scenario.spec_world import (
     WallStyle,
     ZoneSpec,
 )
-from flatland_ma.scenario.types import Flag, Name, Spec, TextureSpec
+from flatland_ma.scenario.types import FileSpec, Flag, Name, Spec, TextureSpec
 
 __all__ = [
     "AgentSpec",
@@ -116,7 +116,7 @@ class EpisodeSpec(Spec):
     """End everyone's episode once no item of this group is left (with ``respawn: never``)."""
 
 
-class ScenarioSpec(Spec):
+class ScenarioSpec(FileSpec):
     description: Annotated[str, Field(strict=True, max_length=200)] = ""
     """One line shown by ``flatland-ma list``."""
     version: Annotated[int, Field(strict=True, ge=0, le=999)] = 0
@@ -163,9 +163,6 @@ class ScenarioSpec(Spec):
     """The scripted solver that proves the task solvable and the score it must reach
     (every shipped scenario has one; the env does not read it)."""
 
-    _origin: tuple[str, dict] = PrivateAttr(default=("<spec>", {}))
-    """The file it was read from and where each key path was written (see ``locate``)."""
-
     @model_validator(mode="before")
     @classmethod
     def _team_bodies(cls, data):
@@ -201,8 +198,7 @@ class ScenarioSpec(Spec):
 
     def locate(self, err: SpecError) -> ScenarioError:
         """A fault found while building this scenario, located in the file it came from."""
-        source, marks = self._origin
-        return located(err, marks, source)
+        return located(err, self.marks, self.source)
 
     def team_of(self, agent_index: int) -> TeamSpec | None:
         """The team of an agent (teams take agents in order), or None without teams."""

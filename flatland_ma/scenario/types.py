@@ -12,10 +12,12 @@ from pydantic import (
     ConfigDict,
     Field,
     PlainSerializer,
+    PrivateAttr,
     WithJsonSchema,
 )
 
 from flatland_ma.scenario.colors import COLOR_JSON_SCHEMA, color_text, parse_color
+from flatland_ma.scenario.errors import Marks
 
 MAX_ARENA_SIDE = 10_000.0
 """The longest side an arena may have, in world units (the largest shipped one is 800):
@@ -99,6 +101,28 @@ class Spec(BaseModel):
     model_config = ConfigDict(
         extra="forbid", frozen=True, validate_default=True, use_attribute_docstrings=True
     )
+
+
+class FileSpec(Spec):
+    """A spec read from a file (a scenario, a suite), which remembers the file and the line
+    of every key path in it, to locate the faults found after validation. Neither is a
+    field: what the spec validates, serialises and compares is its fields alone."""
+
+    _origin: tuple[str, Marks] = PrivateAttr(default=("<spec>", {}))
+
+    @property
+    def source(self) -> str:
+        """The file it was read from (``<spec>`` for one made in code)."""
+        return self._origin[0]
+
+    @property
+    def marks(self) -> Marks:
+        """For each key path, the file and line where its value was written."""
+        return self._origin[1]
+
+    def read_from(self, source: str, marks: Marks) -> None:
+        """Remember that it was read from ``source``, each key path where ``marks`` says."""
+        self._origin = (source, marks)
 
 
 class TextureSpec(Spec):

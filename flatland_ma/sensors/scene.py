@@ -126,6 +126,10 @@ class Outputs(NamedTuple):
             np.zeros((n_rays, 4), np.float32), np.zeros(n_rays), np.full(n_rays, -1, np.int32)
         )
 
+    def with_image(self, image: np.ndarray) -> Outputs:
+        """The same outputs, but the RGB and depth written to ``image`` instead."""
+        return self._replace(image=image)
+
 
 class Scratch(NamedTuple):
     """The loose shapes one eye may see, refilled for each eye."""

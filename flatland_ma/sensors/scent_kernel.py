@@ -126,20 +126,28 @@ def spread(blocked, table, width, sources, reach, dist, pivot, base, cells, queu
     sources) are room for the queue; returns False, the field unfinished, if they are
     too short.
 
-    Cells are taken nearest first, to within a cell of distance (a queue of buckets one
-    cell wide, first in first out within each). Each offers its neighbours its own pivot
-    if they see it; else the path bends here, round a corner: at the corner of this cell
-    that touches blocked cells and sees both the pivot and the neighbour (the shortest
-    such), or at this cell's centre. A neighbour made shorter joins the queue again."""
+    The sources' cells are queued first, then the search takes cells nearest first
+    (``_search``). The helpers are plain compiled functions, not inlined: numba's inlining
+    made the search slower."""
     dist[:] = np.inf
-    # The queue: entries (cell, distance when queued, next entry in the same chain),
-    # chained bucket by bucket (``heads[q]`` the first of bucket q, ``heads[BUCKETS + q]``
-    # its last); the entries not in use are chained from ``unused``. ``level`` is the
-    # distance (in whole cells) being taken.
-    heads = np.full(2 * BUCKETS, -1, np.int64)
+    waiting = _queue_sources(
+        blocked, width, sources, reach, dist, pivot, base, cells, queued_at, after
+    )
+    if waiting <= 0:
+        return waiting == 0  # no source reaches a free cell (done), or no room for them
+    return _search(
+        blocked, table, width, reach, dist, pivot, base, cells, queued_at, after, waiting
+    )
+
+
+@nb.njit(cache=True)
+def _queue_sources(blocked, width, sources, reach, dist, pivot, base, cells, queued_at, after):
+    """Set the distance of the cell of each of ``sources`` (for a source in a blocked cell,
+    of the nearest free cell beside it, that cell's centre its pivot) and queue it in entry
+    0, 1, ...; returns how many were queued, or -1 if ``after`` is too short for them."""
     room = after.shape[0]
     waiting = 0
-    for s in range(sources.shape[0]):  # every source in the first bucket
+    for s in range(sources.shape[0]):
         sx, sy = sources[s, 0], sources[s, 1]
         k = int(sy) * width + int(sx)
         px, py, b = sx, sy, 0.0
@@ -152,25 +160,26 @@ def spread(blocked, table, width, sources, reach, dist, pivot, base, cells, queu
         new = b + _norm(k % width + 0.5 - px, k // width + 0.5 - py)
         if new < dist[k] and new <= reach:
             if waiting == room:
-                return False
+                return -1
             dist[k], base[k], pivot[k, 0], pivot[k, 1] = new, b, px, py
             cells[waiting], queued_at[waiting], after[waiting] = k, new, waiting + 1
             waiting += 1
-    if waiting == 0:
-        return True
-    heads[0], heads[BUCKETS] = 0, waiting - 1
-    after[waiting - 1] = -1
-    for e in range(waiting, room):
-        after[e] = e + 1
-    after[room - 1] = -1
-    unused = waiting if waiting < room else -1
+    return waiting
+
+
+@nb.njit(cache=True)
+def _search(blocked, table, width, reach, dist, pivot, base, cells, queued_at, after, waiting):
+    """Take the ``waiting`` queued cells and those they make shorter, nearest first (see
+    ``_start_queue``); each offers its neighbours its pivot if they see it, else a bend in
+    it (``_bend``). False if the entries run out."""
+    heads = np.full(2 * BUCKETS, -1, np.int64)
+    unused = _start_queue(heads, after, waiting)
     level = 0
     while waiting > 0:
-        q = level % BUCKETS
-        while heads[q] < 0:
+        while heads[level % BUCKETS] < 0:
             level += 1
-            q = level % BUCKETS
-        e = heads[q]
+        q = level % BUCKETS
+        e = heads[q]  # the first entry of the nearest bucket that holds one
         heads[q] = after[e]
         if heads[q] < 0:
             heads[BUCKETS + q] = -1
@@ -188,9 +197,8 @@ def spread(blocked, table, width, sources, reach, dist, pivot, base, cells, queu
                 n = k + di * width + dj
                 if n == k or blocked[n]:
                     continue
-                diagonal = di != 0 and dj != 0
-                if diagonal and (blocked[k + di * width] or blocked[k + dj]):
-                    continue
+                if di != 0 and dj != 0 and (blocked[k + di * width] or blocked[k + dj]):
+                    continue  # diagonal, past a wall's corner
                 ex, ey = cx + dj, cy + di
                 gap = dist[n] - 1e-9 - b
                 gx, gy = ex - px, ey - py
@@ -199,25 +207,7 @@ def spread(blocked, table, width, sources, reach, dist, pivot, base, cells, queu
                 if _sees(blocked, table, width, px, py, ex, ey):
                     new, npx, npy, nb_ = b + _norm(gx, gy), px, py, b
                 else:
-                    new = d + (SQRT2 if diagonal else 1.0)
-                    npx, npy, nb_ = cx, cy, d
-                    for oy in (-1, 1):
-                        for ox in (-1, 1):
-                            if not (
-                                blocked[k + oy * width]
-                                or blocked[k + ox]
-                                or blocked[k + oy * width + ox]
-                            ):
-                                continue  # no blocked cell at this corner of the cell
-                            vx, vy = cx + ox * CORNER, cy + oy * CORNER
-                            bv = b + _norm(vx - px, vy - py)
-                            around = bv + _norm(ex - vx, ey - vy)
-                            if around >= new:
-                                continue
-                            if _sees(blocked, table, width, px, py, vx, vy) and _sees(
-                                blocked, table, width, vx, vy, ex, ey
-                            ):
-                                new, npx, npy, nb_ = around, vx, vy, bv
+                    new, npx, npy, nb_ = _bend(blocked, table, width, d, k, di, dj, b, px, py)
                     if new >= dist[n] - 1e-9:
                         continue
                 if new > reach:
@@ -226,7 +216,7 @@ def spread(blocked, table, width, sources, reach, dist, pivot, base, cells, queu
                     return False
                 dist[n], base[n], pivot[n, 0], pivot[n, 1] = new, nb_, npx, npy
                 e, unused = unused, after[unused]
-                cells[e], queued_at[e], after[e] = n, new, -1
+                cells[e], queued_at[e], after[e] = n, new, -1  # appended to its bucket:
                 q = max(int(new), level) % BUCKETS
                 if heads[BUCKETS + q] < 0:
                     heads[q] = e
@@ -235,6 +225,53 @@ def spread(blocked, table, width, sources, reach, dist, pivot, base, cells, queu
                 heads[BUCKETS + q] = e
                 waiting += 1
     return True
+
+
+@nb.njit(cache=True)
+def _start_queue(heads, after, waiting):
+    """Make the first ``waiting`` entries the first bucket and chain the rest as unused;
+    returns the first unused entry, -1 if none.
+
+    The queue: ``BUCKETS`` buckets one cell of distance wide, used round in turn, each a
+    chain of entries taken first in first out; entry e holds a cell ``cells[e]``, its
+    distance when queued ``queued_at[e]`` and the next entry of its chain ``after[e]``.
+    ``heads[q]`` is the first entry of bucket q, ``heads[BUCKETS + q]`` its last (-1: the
+    bucket is empty). A cell queued at distance d joins bucket ``int(d)`` (or the one
+    being taken, if nearer), modulo ``BUCKETS``."""
+    room = after.shape[0]
+    heads[0], heads[BUCKETS] = 0, waiting - 1
+    after[waiting - 1] = -1
+    for e in range(waiting, room):
+        after[e] = e + 1
+    after[room - 1] = -1
+    return waiting if waiting < room else -1
+
+
+@nb.njit(cache=True)
+def _bend(blocked, table, width, d, k, di, dj, b, px, py):
+    """Where the path from the pivot (px, py), ``b`` from the sources, to the centre of
+    the cell di rows and dj columns from cell k bends in cell k when it does not see the
+    pivot: at the corner of cell k that touches blocked cells and sees both the pivot and
+    that centre (the shortest such), else at cell k's centre, ``d`` from the sources.
+    Returns (length, bend x, bend y, the bend's distance from the sources)."""
+    i = k // width
+    cx, cy = k - i * width + 0.5, i + 0.5
+    ex, ey = cx + dj, cy + di
+    new, npx, npy, nb_ = d + (SQRT2 if di != 0 and dj != 0 else 1.0), cx, cy, d
+    for oy in (-1, 1):
+        for ox in (-1, 1):
+            if not (blocked[k + oy * width] or blocked[k + ox] or blocked[k + oy * width + ox]):
+                continue  # no blocked cell at this corner of the cell
+            vx, vy = cx + ox * CORNER, cy + oy * CORNER
+            bv = b + _norm(vx - px, vy - py)
+            around = bv + _norm(ex - vx, ey - vy)
+            if around >= new:
+                continue
+            if _sees(blocked, table, width, px, py, vx, vy) and _sees(
+                blocked, table, width, vx, vy, ex, ey
+            ):
+                new, npx, npy, nb_ = around, vx, vy, bv
+    return new, npx, npy, nb_
 
 
 @nb.njit(cache=True)

@@ -26,6 +26,9 @@ from flatland_ma.world.entities import Entity
 from flatland_ma.world.navigation import NavGrid
 from flatland_ma.world.world import World
 
+OUTPUTS = 5
+"""Where the kernel's outputs (``Sensors.out``) sit among ``Sensors.kernel_args``."""
+
 _KERNELS: dict[tuple, Callable] = {}
 """The compiled kernel for each layout of its arguments (in practice one per process)."""
 
@@ -213,14 +216,15 @@ class WorldsKernel:
         """World ``w``'s sensors from now on; ``image``: where its rays write their RGB
         and depth instead of ``suite.image`` (an array of the same shape and type, e.g.
         the world's rows of a batch's observations)."""
-        args = list(suite.kernel_args)
+        args = suite.kernel_args
         if image is not None:
             assert image.shape == suite.image.shape and image.dtype == suite.image.dtype
-            args[5] = args[5]._replace(image=image)
+            assert args[OUTPUTS] is suite.out
+            args = (*args[:OUTPUTS], suite.out.with_image(image), *args[OUTPUTS + 1 :])
         if self.worlds is None:
-            self.worlds = filled(tuple(args), self.n)
+            self.worlds = filled(args, self.n)
         else:
-            put(self.worlds, w, tuple(args))
+            put(self.worlds, w, args)
 
     def observe(self, which: np.ndarray) -> None:
         if self._function is None:

@@ -81,7 +81,7 @@ def spec_from_text(
     try:
         raw, marks = _raw(text, source, folder, limit, (source,))
         spec = validate(raw, marks, fallback=source)
-        spec._origin = (source, marks)
+        spec.read_from(source, marks)
         return check_scenario(spec)
     except ScenarioError:
         raise

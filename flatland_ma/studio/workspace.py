@@ -101,7 +101,7 @@ class Workspace:
         """The YAML text behind a reference."""
         folder, name = self.split(ref)
         if folder is None:
-            path = Path(str(load_scenario(name)._origin[0]))
+            path = Path(str(load_scenario(name).source))
             return path.read_text(encoding="utf-8")
         return read_file(folder, name, SCENARIO_SUFFIXES, self.config.limits.file_bytes)
 

@@ -1,8 +1,8 @@
 """The one bridge to pymunk beyond its documented API: every read or write of Chipmunk's
 structs by address and every step past ``Space.step`` lives here, nowhere else.
 
-It works in one of three tiers, chosen once per process (``TIER``) from what this
-pymunk allows (``BEST``), each giving the same numbers to the bit:
+It works in one of three tiers (``tier.py``), chosen once per process (``TIER``) from what
+this pymunk allows (``BEST``), each giving the same numbers to the bit:
 
 ``COMPILED``
     Compiled code reads and writes bodies' fields where Chipmunk keeps them in its
@@ -12,9 +12,9 @@ pymunk allows (``BEST``), each giving the same numbers to the bit:
     step). Needs the struct layout and the ``Space`` internals of pymunk 7.
 ``BATCH``
     Poses come back a space at a time through ``pymunk.batch.get_space_bodies`` (public,
-    though pymunk calls it experimental) in worlds of ``BATCH_FROM`` moving bodies or
-    more, where that is cheaper than attributes; spaces step through ``Space.step``; each
-    agent drives its body through pymunk's attributes.
+    though pymunk calls it experimental: ``poses.py``) in worlds of ``BATCH_FROM`` moving
+    bodies or more, where that is cheaper than attributes; spaces step through
+    ``Space.step``; each agent drives its body through pymunk's attributes.
 ``ATTRIBUTES``
     pymunk's documented attributes and ``Space.step`` only.
 
@@ -35,34 +35,17 @@ import ctypes
 import os
 import warnings
 from collections.abc import Callable
-from enum import IntEnum
 from typing import Any
 
 import numba as nb
-import numpy as np
 import pymunk
 from numba import types
 from numba.extending import intrinsic
 from pymunk._chipmunk import ffi
 from pymunk._chipmunk import lib as _chipmunk
 
-_batch: Any
-try:
-    from pymunk import batch as _batch
-except ImportError:  # a pymunk before 7: no batch tier
-    _batch = None
-
-VARIABLE = "FLATLAND_MA_PHYSICS"
-"""The environment variable that asks for a tier."""
-
-
-class Tier(IntEnum):
-    """How pymunk is reached, slowest first (see the module's docstring)."""
-
-    ATTRIBUTES = 1
-    BATCH = 2
-    COMPILED = 3
-
+from flatland_ma.world.poses import batch_found
+from flatland_ma.world.tier import VARIABLE, Tier, chosen, described
 
 # -- Chipmunk's structs ------------------------------------------------------------------
 
@@ -118,52 +101,19 @@ def _queues_found() -> bool:
     return pymunk.version.startswith("7.") and all(hasattr(probe, n) for n in names)
 
 
-def _batch_found() -> bool:
-    """Whether ``pymunk.batch`` reads ids, positions and angles as this module expects."""
-    try:
-        space, body = pymunk.Space(), pymunk.Body(1.0, 1.0)
-        body.position, body.angle = (1.5, -2.0), 0.25
-        space.add(body)
-        return _space_poses(space, _batch.Buffer()) == ([body.id], [(1.5, -2.0, 0.25)])
-    except (AttributeError, TypeError, ValueError):
-        return False
-
-
-def _pose_fields() -> Any:
-    fields = _batch.BodyFields
-    return fields.BODY_ID | fields.POSITION | fields.ANGLE
-
-
-def _space_poses(space: pymunk.Space, buffer: Any) -> tuple[list, list]:
-    buffer.clear()
-    _batch.get_space_bodies(space, _pose_fields(), buffer)
-    ids = np.frombuffer(buffer.int_buf(), np.uintp).tolist()
-    values = np.frombuffer(buffer.float_buf(), np.float64).reshape(-1, 3)
-    return ids, [tuple(row) for row in values.tolist()]
-
-
 def _best() -> tuple[Tier, str]:
     """The fastest tier this pymunk allows, and why not a faster one."""
     if _fields_found() and _queues_found():
         return Tier.COMPILED, ""
     why = f"pymunk {pymunk.version} keeps its bodies or spaces elsewhere than pymunk 7.3 does"
-    if _batch_found():
+    if batch_found():
         return Tier.BATCH, why
     return Tier.ATTRIBUTES, why + ", and its pymunk.batch differs"
 
 
-def _chosen(best: Tier, asked: str | None) -> Tier:
-    if not asked:
-        return best
-    names = {tier.name.lower(): tier for tier in Tier}
-    if asked.lower() not in names:
-        raise ValueError(f"{VARIABLE}={asked!r}: one of {', '.join(names)}")
-    return min(best, names[asked.lower()])
-
-
 BEST, _WHY = _best()
 """The fastest tier this pymunk allows."""
-TIER = _chosen(BEST, os.environ.get(VARIABLE))
+TIER = chosen(BEST, os.environ.get(VARIABLE))
 """The tier in use in this process."""
 BIAS_CLEARABLE = TIER is Tier.COMPILED and _bias_found()
 """Whether ``clear_bias`` can zero a body's pseudo-velocities in this process."""
@@ -171,12 +121,7 @@ BIAS_CLEARABLE = TIER is Tier.COMPILED and _bias_found()
 
 def describe() -> str:
     """The tier in use, in words (``flatland-ma bench`` prints it)."""
-    text = f"{TIER.name.lower()} (pymunk {pymunk.version}"
-    if TIER < BEST:
-        text += f"; {VARIABLE} asked for it, {BEST.name.lower()} is possible"
-    elif TIER < Tier.COMPILED:
-        text += f"; {_WHY}"
-    return text + ")"
+    return described(TIER, BEST, _WHY, pymunk.version)
 
 
 if TIER < Tier.COMPILED:
@@ -341,73 +286,3 @@ def read_poses_at(poses, bodies, which):
             pose[i, 0] = body[_TA] * 0.0 + body[_TC] * 0.0 + body[_TX]
             pose[i, 1] = body[_TA + 1] * 0.0 + body[_TC + 1] * 0.0 + body[_TY]
             pose[i, 2] = body[_ANGLE]
-
-
-# -- poses a space at a time (the batch tier) --------------------------------------------
-
-
-class SpacePoses:
-    """The poses of some bodies of one space, read in one ``pymunk.batch`` call: ``read``
-    writes each body's (x, y, angle) into its row of ``pose``; a body taken out of the
-    space (an agent retired in the step) is read through its attributes. Where each body
-    lies in what pymunk hands back is worked out again only when the space's bodies
-    changed."""
-
-    def __init__(self, pose: np.ndarray, bodies: list[pymunk.Body]):
-        self.pose = pose
-        self._bodies = list(bodies)  # their structs live while they are referenced here
-        self._space = next((b.space for b in bodies if b.space is not None), None)
-        self._ids = np.array([b.id for b in bodies], np.uintp)
-        self._buffer = _batch.Buffer()
-        self._fields = _pose_fields()
-        self._seen = b""
-        """The ids pymunk handed back last, as bytes."""
-        self._found, self._rows = np.zeros(0, np.intp), np.zeros(0, np.intp)
-        self._missing: list[int] = list(range(len(bodies)))
-
-    def read(self) -> None:
-        if self._space is not None:
-            buffer = self._buffer
-            buffer.clear()
-            _batch.get_space_bodies(self._space, self._fields, buffer)
-            ids = bytes(buffer.int_buf())
-            if ids != self._seen:
-                self._locate(np.frombuffer(ids, np.uintp))
-                self._seen = ids
-            values = np.frombuffer(buffer.float_buf(), np.float64).reshape(-1, 3)
-            self.pose[self._found] = values[self._rows]
-        for i in self._missing:
-            body = self._bodies[i]
-            self.pose[i] = (*body.position, body.angle)
-
-    def _locate(self, ids: np.ndarray) -> None:
-        """Which of our bodies are among ``ids`` (``_found``), at which rows (``_rows``)."""
-        where = {body_id: row for row, body_id in enumerate(ids.tolist())}
-        rows = [where.get(body_id, -1) for body_id in self._ids.tolist()]
-        self._found = np.array([i for i, r in enumerate(rows) if r >= 0], np.intp)
-        self._rows = np.array([r for r in rows if r >= 0], np.intp)
-        self._missing = [i for i, r in enumerate(rows) if r < 0]
-
-
-class AttributePoses:
-    """``SpacePoses`` through pymunk's attributes: cheaper for a few bodies."""
-
-    def __init__(self, pose: np.ndarray, bodies: list[pymunk.Body]):
-        self.pose = pose
-        self._bodies = list(bodies)
-
-    def read(self) -> None:
-        if self._bodies:
-            self.pose[:] = [(*body.position, body.angle) for body in self._bodies]
-
-
-BATCH_FROM = 5
-"""Moving bodies from which a world's poses are cheaper through ``pymunk.batch`` than
-through attributes: it reads every body of the space, fixed items too, for about 12 µs
-and more (measured per read on pymunk 7.3.1, attributes against batch: 1 body 4.3 and
-12.9 µs, 4 bodies 10.1 and 16.4, 5 bodies 29.5 and 22.0, 8 bodies 34.3 and 19.6)."""
-
-
-def poses_of(pose: np.ndarray, bodies: list[pymunk.Body]) -> SpacePoses | AttributePoses:
-    """The batch tier's reader of these bodies' poses, the cheaper for their number."""
-    return SpacePoses(pose, bodies) if len(bodies) >= BATCH_FROM else AttributePoses(pose, bodies)
