@@ -127,7 +127,7 @@ scenario-page: $(STAMP)
 	@test -n "$(NAME)" || (echo "usage: make scenario-page NAME=<scenario>" && exit 2)
 	$(BIN)/flatland-ma record $(NAME) --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$(NAME).png
 	$(BIN)/python docs/_ext/animations.py $(NAME)
-	$(BIN)/python -m flatland_ma.scores_header $(NAME)
+	$(BIN)/python -m flatland_ma.policies.scores_header $(NAME)
 
 # Pictures of the scenarios for the README and docs/ (after the format reference), and a
 # short animation for every scenario page without a recording of its own (docs/images/animations).

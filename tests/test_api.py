@@ -8,7 +8,7 @@ from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import api_test, parallel_api_test, render_test, seed_test, state_test
 
 import flatland_ma
-from flatland_ma.registration import gym_id
+from flatland_ma.envs.registration import gym_id
 
 SCENARIOS = flatland_ma.list_scenarios()
 SINGLE_AGENT = [s for s in SCENARIOS if flatland_ma.load_scenario(s).n_agents == 1]

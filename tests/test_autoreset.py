@@ -13,9 +13,9 @@ from gymnasium.vector import AutoresetMode
 
 import flatland_ma
 from flatland_ma.envs.flatten import FlatLayout
+from flatland_ma.envs.registration import gym_id
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.registration import gym_id
 
 FRUITS = gym_id("fruits_poisons")
 GOALS = {

@@ -13,10 +13,10 @@ from gymnasium.utils.env_checker import data_equivalence
 import flatland_ma
 from flatland_ma.envs import vector
 from flatland_ma.envs.gym_vector import FlatlandVectorEnv
+from flatland_ma.envs.registration import gym_id
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.lifelong.batched import StreamBatchedEnv
-from flatland_ma.registration import gym_id
 from flatland_ma.scenario import budget
 
 JOIN_SECONDS = 60.0

@@ -10,8 +10,8 @@ from gymnasium.utils.env_checker import data_equivalence
 
 import flatland_ma
 from flatland_ma.envs.gym_vector import FlatlandVectorEnv
+from flatland_ma.envs.registration import gym_id
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.registration import gym_id
 
 GOALS = {
     "items": [
@@ -201,7 +201,7 @@ def test_every_scenario_batches_with_the_infos_of_separate_envs(scenario):
 
 
 def test_the_batched_envs_are_reachable_from_the_package():
-    import flatland_ma.vector as vector
+    import flatland_ma as vector
 
     assert flatland_ma.BatchedParallelEnv is vector.BatchedParallelEnv is BatchedParallelEnv
     assert flatland_ma.ShardedParallelEnv is vector.ShardedParallelEnv

@@ -11,9 +11,9 @@ from collections import Counter
 import pytest
 
 from benchmarks.performance_table import breakdown_table, table
-from flatland_ma import bench_breakdown
-from flatland_ma.bench_breakdown import Breakdown, format_rows, measure
-from flatland_ma.bench_scale import ScaleRun, as_json, format_table
+from flatland_ma.bench import breakdown as bench_breakdown
+from flatland_ma.bench.breakdown import Breakdown, format_rows, measure
+from flatland_ma.bench.scale import ScaleRun, as_json, format_table
 
 
 def test_a_row_times_its_parts_on_the_envs_worlds(monkeypatch):
@@ -115,7 +115,7 @@ def test_the_figures_reach_the_table_the_json_and_the_page():
 
 
 def test_the_bare_chunks_count_the_worlds_steps(monkeypatch):
-    from flatland_ma.bench import BarePhysics
+    from flatland_ma.bench.throughput import BarePhysics
 
     bare = BarePhysics.of("fruits_poisons", worlds=2)
     stepped = []

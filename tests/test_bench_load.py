@@ -7,8 +7,8 @@ import os
 
 import pytest
 
-from flatland_ma import bench_load
-from flatland_ma.bench_load import BUSY_CORES, Load, LoadMeter
+from flatland_ma.bench import load as bench_load
+from flatland_ma.bench.load import BUSY_CORES, Load, LoadMeter
 
 
 def write_proc(root, busy_ticks: int, processes: dict[int, tuple[int, int]]) -> None:
@@ -60,7 +60,7 @@ def test_without_proc_only_the_load_average_is_known(tmp_path, monkeypatch):
 
 
 def test_the_bare_physics_runs_after_every_slice_for_its_share_of_it(monkeypatch):
-    from flatland_ma import bench
+    from flatland_ma.bench import throughput as bench
 
     now = [0.0]  # a made-up clock that only a step moves, by 10 ms
     monkeypatch.setattr(bench.time, "perf_counter", lambda: now[0])
@@ -88,7 +88,7 @@ def test_the_bare_physics_runs_after_every_slice_for_its_share_of_it(monkeypatch
 
 def test_bare_physics_counts_whole_chunks_on_the_worlds_own_space():
     import flatland_ma
-    from flatland_ma.bench import BarePhysics
+    from flatland_ma.bench.throughput import BarePhysics
 
     env = flatland_ma.parallel_env("fruits_poisons")
     bare = BarePhysics([env])
@@ -102,7 +102,7 @@ def test_bare_physics_counts_whole_chunks_on_the_worlds_own_space():
 
 
 def test_a_count_of_calls_is_cut_into_slices_with_the_bare_physics_between():
-    from flatland_ma import bench
+    from flatland_ma.bench import throughput as bench
 
     events: list = []
 

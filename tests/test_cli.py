@@ -6,7 +6,7 @@ import sys
 import pytest
 
 import flatland_ma
-from flatland_ma.bench import (
+from flatland_ma.bench.throughput import (
     BENCHED,
     BenchResult,
     bench_batched,
@@ -111,7 +111,7 @@ def test_list_into_a_reader_that_leaves_early_prints_no_traceback():
 
 
 def test_bench_reports_what_each_sensor_kind_costs():
-    from flatland_ma.bench_sensors import SETUPS, format_costs, sensor_costs
+    from flatland_ma.bench.sensors import SETUPS, format_costs, sensor_costs
 
     costs = sensor_costs(steps=50)
     assert [c.label for c in costs[: len(SETUPS)]] == [label for label, _ in SETUPS]
@@ -138,7 +138,7 @@ def test_bench_prints_json_for_machines(capsys):
 def test_bench_at_scale_measures_one_process_and_every_core(capsys, monkeypatch):
     import json
 
-    from flatland_ma import bench_scale
+    from flatland_ma.bench import scale as bench_scale
 
     monkeypatch.setattr(bench_scale, "cores", lambda: 2)
     monkeypatch.setattr(bench_scale, "TARGET_WORLDS", 2)
@@ -176,7 +176,7 @@ def test_bench_at_scale_measures_one_process_and_every_core(capsys, monkeypatch)
 
 
 def test_bench_times_ppo_end_to_end_from_a_checkout(tmp_path):
-    from flatland_ma.bench_scale import bench_ppo
+    from flatland_ma.bench.scale import bench_ppo
 
     rate = bench_ppo(steps=512, worlds=1)
     assert rate.agent_steps_per_s and rate.agent_steps_per_s > 0, rate.note

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from flatland_ma import bench_command, cli
-from flatland_ma.evaluation import command as evaluation
-from flatland_ma.lifelong import command as lifelong
-from flatland_ma.options import MAX_FRAMES
+from flatland_ma.cli import bench as bench_command
+from flatland_ma.cli import commands as cli
+from flatland_ma.cli import evaluate as evaluation
+from flatland_ma.cli import lifelong
+from flatland_ma.cli.options import MAX_FRAMES
 from flatland_ma.play.keys import MAX_SCRIPT_FRAMES, Keys, ScriptedKeys, parse_script
 
 

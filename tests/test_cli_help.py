@@ -3,8 +3,7 @@ subcommand has a description, and the policies listed are every shipped one."""
 
 import argparse
 
-from flatland_ma import options
-from flatland_ma.cli import build_parser, main
+from flatland_ma.cli import build_parser, main, options
 from flatland_ma.policies.named import SHIPPED
 
 

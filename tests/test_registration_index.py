@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import flatland_ma
-from flatland_ma import registration
+from flatland_ma.envs import registration
 from flatland_ma.scenario import shipped
 from flatland_ma.scenario.index import index_of_files, index_text
 from flatland_ma.scenario.shipped import INDEX_FILE, read_index

@@ -12,9 +12,9 @@ import pytest
 from gymnasium.utils.env_checker import data_equivalence
 
 from flatland_ma.envs.gym_vector import FlatlandVectorEnv
+from flatland_ma.envs.registration import gym_id
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.registration import gym_id
 from tests.test_batched_scenarios import ALIKE
 
 GOALS = {

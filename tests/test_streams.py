@@ -146,7 +146,7 @@ def test_every_shipped_stream_has_a_gymnasium_id_that_lives_its_life():
     import gymnasium
 
     import flatland_ma
-    from flatland_ma.registration import stream_gym_id
+    from flatland_ma.envs.registration import stream_gym_id
 
     assert flatland_ma.STREAM_GYM_IDS == [stream_gym_id(name) for name in list_streams()]
     assert "flatland_ma/CrossObjectiveStream-v0" in flatland_ma.STREAM_GYM_IDS

@@ -375,7 +375,7 @@ def test_checkpoints_come_from_their_folder_through_the_data_only_loader(folders
 
 def test_the_command_checks_its_options_and_asks_a_token_beyond_the_loopback(tmp_path):
     from flatland_ma.cli import build_parser, main
-    from flatland_ma.studio.command import config_of
+    from flatland_ma.cli.studio import config_of
 
     assert main(["studio", "--host", "bad host"]) == 2
     assert main(["studio", "--port", "70000"]) == 2

@@ -402,7 +402,7 @@ def test_messages_name_files_as_the_pages_do_not_by_server_paths(tmp_path):
 
 def test_the_command_prints_addresses_a_browser_opens_and_keeps_scores_in_a_folder(tmp_path):
     from flatland_ma.cli import build_parser
-    from flatland_ma.studio.command import config_of
+    from flatland_ma.cli.studio import config_of
 
     hosts = browser_hosts("0.0.0.0")
     assert "0.0.0.0" not in hosts and hosts[-1] == "127.0.0.1"

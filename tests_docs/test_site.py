@@ -91,7 +91,7 @@ def test_the_api_pages_show_the_env_and_every_extension_base_but_no_internal_con
     text = "".join(page_text(p) for p in PAGES if p.startswith("api/"))
     shown = [
         "flatland_ma.envs.parallel.FlatlandParallelEnv",
-        "flatland_ma.extensions.register",
+        "flatland_ma.scenario.extensions.register",
         "flatland_ma.build.feasibility.check_scenario",
         "flatland_ma.sensors.sensor.Sensor",
         "flatland_ma.tasks.rule.Rule",

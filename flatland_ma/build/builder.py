@@ -32,9 +32,9 @@ from flatland_ma.build.capacity import spawn_group_of, spawn_groups
 from flatland_ma.build.entities import item_group, make_item, make_zone
 from flatland_ma.build.generators import generator_for
 from flatland_ma.build.ground import Ground
+from flatland_ma.build.kind_faults import make_kind
 from flatland_ma.build.layout import explicit_layout
 from flatland_ma.build.reach import reachable_region
-from flatland_ma.registry import make_kind
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import ScenarioSpec
 from flatland_ma.sensors.sensor import Sensor

@@ -299,7 +299,7 @@ class RandomObstaclesSpec(GeneratorBaseSpec):
 
 GENERATORS = SpecKinds("generator", "generator", GeneratorBaseSpec)
 """Every generator's spec, by its ``generator``: the shipped ones, and those registered
-with ``flatland_ma.register`` or an entry point (``flatland_ma.extensions``)."""
+with ``flatland_ma.register`` or an entry point (``flatland_ma.scenario.extensions``)."""
 for _spec in (GridRoomsSpec, MazeSpec, RandomObstaclesSpec):
     GENERATORS.add(_spec)
 

@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 from gymnasium import spaces
 
-from flatland_ma.registry import ExtensionError
+from flatland_ma.kinds.registry import ExtensionError
 from flatland_ma.sensors import kernel
 from flatland_ma.sensors.geometry import Geometry
 from flatland_ma.sensors.lists import filled, put

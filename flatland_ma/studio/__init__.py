@@ -1,7 +1,7 @@
 """``flatland-ma studio``: a local web app to design, watch and play scenarios in a browser.
 
-The top floor of the package: it uses every layer below and nothing imports it (the
-command line registers its subcommand through ``studio.command``). Its pieces:
+The top floor of the package under the command line: it uses every layer below, and only
+the command line imports it (``flatland_ma.cli.studio`` serves it). Its pieces:
 
 - ``config``: the folders it may read and write, the token, and the limits;
 - ``folders``: file names checked to stay inside the given folders;

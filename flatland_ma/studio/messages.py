@@ -31,7 +31,7 @@ from pydantic import (
     ValidationError,
 )
 
-from flatland_ma.options import MAX_SEED
+from flatland_ma.studio.config import MAX_SEED
 
 Key = Annotated[str, StringConstraints(min_length=1, max_length=16, pattern=r"^[a-z0-9]+$")]
 Name = Annotated[str, StringConstraints(min_length=1, max_length=240)]

@@ -6,8 +6,8 @@ import sys
 from argparse import ArgumentTypeError
 from pathlib import Path
 
-from flatland_ma import options
-from flatland_ma.options import OptionError
+import flatland_ma.cli.options as options
+from flatland_ma.cli.options import OptionError
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import load_scenario
 

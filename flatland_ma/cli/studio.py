@@ -7,8 +7,8 @@ import secrets
 import sys
 from pathlib import Path
 
-from flatland_ma import options
-from flatland_ma.options import OptionError
+import flatland_ma.cli.options as options
+from flatland_ma.cli.options import OptionError
 from flatland_ma.studio.config import LOOPBACK, Limits, StudioConfig
 
 DEFAULT_PORT = 8765

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flatland_ma.bench import BarePhysics, BenchResult, interleaved
-from flatland_ma.bench_load import LoadMeter
+from flatland_ma.bench.load import LoadMeter
+from flatland_ma.bench.throughput import BarePhysics, BenchResult, interleaved
 from flatland_ma.sensors.threads import usable_cpus
 
 SCENARIO = "fruits_poisons"
@@ -38,7 +38,7 @@ def bench_make_vec(worlds: int, seconds: float) -> list[BenchResult]:
     """``make_vec(id, num_envs=worlds)`` and one ``make(id)`` env, each beside bare physics."""
     import gymnasium
 
-    from flatland_ma.registration import gym_id
+    from flatland_ma.envs.registration import gym_id
 
     name = gym_id(SCENARIO)
     rows = []

@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from flatland_ma import options
+import flatland_ma.cli.options as options
 
 
 def add_parser(commands) -> None:

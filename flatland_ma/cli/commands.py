@@ -1,8 +1,10 @@
-"""The ``flatland-ma`` command line: one subcommand a task (``flatland-ma --help`` lists them).
+"""The ``flatland-ma`` parser (one subcommand a task) and its small commands: ``list``,
+``validate``, ``demo``, ``record`` and ``play``; the others have a module each in this
+package (``bench``, ``evaluate``, ``lifelong``, ``convert``, ``studio``).
 
-Every option has a checked type (``flatland_ma.options``), and each command's checks that
-need several options or a loaded scenario run right after parsing: a wrong option stops
-the command with status 2 and the option's name, before any work starts.
+Every option has a checked type (``flatland_ma.cli.options``), and each command's checks
+that need several options or a loaded scenario run right after parsing: a wrong option
+stops the command with status 2 and the option's name, before any work starts.
 """
 
 from __future__ import annotations
@@ -15,15 +17,17 @@ from pathlib import Path
 
 import numpy as np
 
-from flatland_ma import __version__, bench_command, options
-from flatland_ma.evaluation import command as evaluation
-from flatland_ma.lifelong import command as lifelong
-from flatland_ma.options import OptionError
-from flatland_ma.policies import convert_command
-from flatland_ma.registry import ExtensionError
+import flatland_ma.cli.bench as bench_command
+import flatland_ma.cli.convert as convert_command
+import flatland_ma.cli.evaluate as evaluation
+import flatland_ma.cli.lifelong as lifelong
+import flatland_ma.cli.options as options
+import flatland_ma.cli.studio as studio
+from flatland_ma import __version__
+from flatland_ma.cli.options import OptionError
+from flatland_ma.kinds.registry import ExtensionError
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, scenario_path
-from flatland_ma.studio import command as studio
 
 DESCRIPTION = (
     "Scenarios of a multi-agent, first-person 2-D world: list and check them, watch and "
@@ -243,7 +247,7 @@ def _check_record(args) -> None:
 
 
 def _list(args) -> int:
-    from flatland_ma.registration import gym_id
+    from flatland_ma.envs.registration import gym_id
 
     for name in list_scenarios():
         spec = load_scenario(name)
@@ -378,7 +382,3 @@ def _play(args) -> int:
     if session.stopped and session.tallies:
         print("left before the episode ended: its score is not written")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from flatland_ma.bench import BarePhysics, BenchResult, interleaved
-from flatland_ma.bench_breakdown import Breakdown, format_rows, measure
-from flatland_ma.bench_load import Load, LoadMeter
-from flatland_ma.bench_targets import RayRate, bench_busy_core, bench_make_vec, bench_rays
+from flatland_ma.bench.breakdown import Breakdown, format_rows, measure
+from flatland_ma.bench.load import Load, LoadMeter
+from flatland_ma.bench.targets import RayRate, bench_busy_core, bench_make_vec, bench_rays
+from flatland_ma.bench.throughput import BarePhysics, BenchResult, interleaved
 
 WORLDS = (1, 16, 256, 1024)
 SECONDS = 3.0
@@ -108,7 +108,7 @@ def bench_ppo(steps: int = 65_536, worlds: int = 16, root: Path | None = None) -
     ``python -m baselines.ppo`` from the checkout the package sits in (the baselines are
     not part of the installed package)."""
     label = f"PPO end to end, fruits_poisons_multi x {worlds}, {cores()} cores"
-    root = root or Path(__file__).resolve().parent.parent
+    root = root or Path(__file__).resolve().parents[2]
     if not (root / "baselines" / "ppo.py").exists():
         return TrainingRate(label, None, "not measured: baselines/ is in a checkout only")
     with tempfile.TemporaryDirectory() as out:

@@ -22,9 +22,8 @@ from pathlib import Path
 
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import load_scenario
+from flatland_ma.studio.config import MAX_SEED
 
-MAX_SEED = 2**32 - 1
-"""Seeds run from 0 to this (NumPy's legacy range; every generator here accepts it)."""
 MAX_EPISODES = 10_000
 """Episodes a command plays per policy, per background or per pair."""
 MAX_STEPS = 1_000_000

@@ -30,7 +30,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from flatland_ma.bench import BarePhysics
+from flatland_ma.bench.throughput import BarePhysics
 
 STEPS = 60
 """Env steps timed per row (fewer when the step limit comes first): the same for every

@@ -1,7 +1,7 @@
 """The scores line of a shipped scenario's header comment: random play and the scenario's
 reference solver, mean ± std of the mean return per agent over seeded episodes.
 
-    python -m flatland_ma.scores_header NAME [--episodes 20]
+    python -m flatland_ma.policies.scores_header NAME [--episodes 20]
 
 ``make scenario-page NAME=...`` runs it after drawing the scenario's picture; paste what
 it prints into the file's header (the library tests look for "Scores", "random" and the

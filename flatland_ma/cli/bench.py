@@ -1,13 +1,13 @@
 """``flatland-ma bench``: each env's rate beside the bare ``space.step`` rate of its world,
 and what each sensor kind costs; or, with ``--scale``, the batched env over many worlds
-(``flatland_ma.bench`` and ``flatland_ma.bench_scale`` measure)."""
+(``flatland_ma.bench.throughput`` and ``flatland_ma.bench.scale`` measure)."""
 
 from __future__ import annotations
 
 import json
 
-from flatland_ma import options
-from flatland_ma.options import OptionError
+import flatland_ma.cli.options as options
+from flatland_ma.cli.options import OptionError
 
 STEPS = 20_000
 """``--steps`` when not given."""
@@ -61,7 +61,7 @@ def check(args) -> None:
         return
     if args.steps is not None:
         raise OptionError("--steps", "not with --scale (its rows run for --seconds)")
-    from flatland_ma import bench_scale
+    from flatland_ma.bench import scale as bench_scale
 
     try:
         bench_scale.check_worlds(args.worlds or bench_scale.WORLDS)
@@ -79,9 +79,9 @@ def _tier() -> str:
 def run(args) -> int:
     if args.scale:
         return _scale(args)
-    from flatland_ma.bench import format_table
-    from flatland_ma.bench import run as bench
-    from flatland_ma.bench_sensors import format_costs, sensor_costs
+    from flatland_ma.bench.sensors import format_costs, sensor_costs
+    from flatland_ma.bench.throughput import format_table
+    from flatland_ma.bench.throughput import run as bench
 
     steps = args.steps or STEPS
     results = bench(steps)
@@ -110,7 +110,7 @@ def run(args) -> int:
 
 
 def _scale(args) -> int:
-    from flatland_ma import bench_scale
+    from flatland_ma.bench import scale as bench_scale
 
     worlds = args.worlds or bench_scale.WORLDS
     seconds = args.seconds or bench_scale.SECONDS

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel
 
-from flatland_ma.registry import load_extensions
+from flatland_ma.kinds.entry_points import load_extensions
 from flatland_ma.scenario.kinds import SpecKinds, tag_of
 from flatland_ma.scenario.spec_agent import PARTS
 from flatland_ma.scenario.spec_rules import RULES

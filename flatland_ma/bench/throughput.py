@@ -13,9 +13,9 @@ from dataclasses import dataclass, replace
 
 import gymnasium
 
-from flatland_ma.bench_load import Load, LoadMeter
+from flatland_ma.bench.load import Load, LoadMeter
 from flatland_ma.envs.parallel import FlatlandParallelEnv
-from flatland_ma.registration import gym_id
+from flatland_ma.envs.registration import gym_id
 
 
 @dataclass
