@@ -20,7 +20,7 @@ def test_a_row_times_its_parts_on_the_envs_worlds(monkeypatch):
     # Count what each part did: the kernel's calls over every world, World.step's calls,
     # and the resets.
     from flatland_ma.envs.vector import BatchedParallelEnv
-    from flatland_ma.sensors.suite import WorldsKernel
+    from flatland_ma.sensors.sensor_suite import WorldsKernel
     from flatland_ma.world.world import World
 
     kernel_calls, world_steps, restarts = [], Counter(), []

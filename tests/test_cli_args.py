@@ -11,7 +11,7 @@ import pytest
 from flatland_ma.cli import bench as bench_command
 from flatland_ma.cli import commands as cli
 from flatland_ma.cli import evaluate as evaluation
-from flatland_ma.cli import lifelong
+from flatland_ma.cli import task_streams as lifelong
 from flatland_ma.cli.options import MAX_FRAMES
 from flatland_ma.play.keys import MAX_SCRIPT_FRAMES, Keys, ScriptedKeys, parse_script
 

@@ -9,7 +9,7 @@ import pytest
 import flatland_ma
 from flatland_ma.sensors import cull, kernel
 from flatland_ma.sensors.scene import Outputs, pack_eyes, pack_scene
-from flatland_ma.sensors.suite import compiled_kernel
+from flatland_ma.sensors.sensor_suite import compiled_kernel
 from tests import kernel_reference
 from tests.kernel_helpers import box, cast, deg
 

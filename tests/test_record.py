@@ -9,7 +9,7 @@ from PIL import Image, ImageSequence
 import flatland_ma
 from flatland_ma.cli import main
 from flatland_ma.envs.registration import gym_id
-from flatland_ma.render import topdown
+from flatland_ma.render import renderer as topdown
 from flatland_ma.render.video import save_mp4
 
 

@@ -9,7 +9,8 @@ import pytest
 from gymnasium import spaces
 
 import flatland_ma
-from flatland_ma.render import senses, topdown
+from flatland_ma.render import renderer as topdown
+from flatland_ma.render import senses
 from flatland_ma.render.video import save_gif
 from flatland_ma.sensors.camera import Camera
 from flatland_ma.sensors.semantic import SEMANTIC_COLORS

@@ -4,7 +4,8 @@ parser of every command and option.
 
 ``commands``: the parser and the small commands; ``options``: the checked types of the
 options (a wrong one stops the command before any work); one module per larger command:
-``bench``, ``evaluate``, ``lifelong``, ``convert`` (``checkpoint convert``), ``studio``.
+``bench``, ``evaluate``, ``task_streams`` (``lifelong``), ``convert`` (``checkpoint``),
+``studio``.
 """
 
 from flatland_ma.cli.commands import DESCRIPTION, build_parser, main, subcommands

@@ -1,6 +1,7 @@
 """The ``flatland-ma`` parser (one subcommand a task) and its small commands: ``list``,
 ``validate``, ``demo``, ``record`` and ``play``; the others have a module each in this
-package (``bench``, ``evaluate``, ``lifelong``, ``convert``, ``studio``).
+package (``bench``, ``evaluate``, ``task_streams`` for ``lifelong``, ``convert`` for
+``checkpoint``, ``studio``).
 
 Every option has a checked type (``flatland_ma.cli.options``), and each command's checks
 that need several options or a loaded scenario run right after parsing: a wrong option
@@ -20,9 +21,9 @@ import numpy as np
 import flatland_ma.cli.bench as bench_command
 import flatland_ma.cli.convert as convert_command
 import flatland_ma.cli.evaluate as evaluation
-import flatland_ma.cli.lifelong as lifelong
 import flatland_ma.cli.options as options
 import flatland_ma.cli.studio as studio
+import flatland_ma.cli.task_streams as task_streams
 from flatland_ma import __version__
 from flatland_ma.cli.options import OptionError
 from flatland_ma.kinds.registry import ExtensionError
@@ -175,7 +176,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     bench_command.add_parser(commands)
     evaluation.add_parser(commands)
-    lifelong.add_parser(commands)
+    task_streams.add_parser(commands)
     convert_command.add_parser(commands)
     studio.add_parser(commands)
     return parser
@@ -217,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
         "play": _play,
         "bench": bench_command.run,
         "evaluate": evaluation.run,
-        "lifelong": lifelong.run,
+        "lifelong": task_streams.run,
         "checkpoint": convert_command.run,
         "studio": studio.run,
     }[args.command]
