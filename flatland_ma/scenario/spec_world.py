@@ -7,9 +7,9 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from flatland_ma.scenario.budget import MAX_GROUPS
 from flatland_ma.scenario.kinds import SpecKinds
 from flatland_ma.scenario.types import (
+    MAX_GROUPS,
     MIN_LENGTH,
     Color,
     Distance,
