@@ -47,7 +47,7 @@ from tests.checkpoint_helpers import (  # noqa: E402
     write_old_checkpoint,
 )
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ENV = flatland_ma.parallel_env("fruits_poisons")
 
 

@@ -1,6 +1,6 @@
 """The recipes of docs/integrations.md as code: each block tagged
 ``<!-- recipe: NAME | runs on: TYPES -->``, run on each scenario type it lists with its
-``STEPS`` made small (``tests/test_integrations.py`` and ``tests_clients/``)."""
+``STEPS`` made small (``tests/integrations/test_integrations.py`` and ``tests/clients/``)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import re
 import sys
 from pathlib import Path
 
-GUIDE = Path(__file__).resolve().parent.parent / "docs" / "integrations.md"
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "integrations.md"
 SCENARIO_LINE = 'SCENARIO, OPTIONS = "fruits_poisons_multi", {}'
 """The line every multi-scenario recipe starts from; the tests put each type's row in it."""
 

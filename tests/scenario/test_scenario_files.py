@@ -205,7 +205,7 @@ def test_the_yaml_examples_in_the_docs_are_valid_scenarios(tmp_path, document):
     import re
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parent.parent / document).read_text()
+    text = (Path(__file__).resolve().parents[2] / document).read_text()
     blocks = re.findall(r"```yaml\n(.*?)```", text, re.S)
     assert blocks
     for k, block in enumerate(blocks):

@@ -21,7 +21,7 @@ pytest.importorskip("torch")
 pytest.importorskip("supersuit")
 pytest.importorskip("tyro")
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 COUNTERS = {
     "fruits_poisons": ["score", "fruits", "poisons"],
     "key_door": ["score", "key", "goal"],

@@ -38,7 +38,7 @@ FLAT_CASES = {
 
 
 def ignore_known_warnings(env) -> None:
-    """The AEC checker's warnings that a scenario's kind implies (see tests/test_api.py)."""
+    """The AEC checker's warnings that a scenario's kind implies (see tests/envs/test_api.py)."""
     spec = env.unwrapped.spec
     if spec.channel is not None:  # MultiDiscrete: a move and words
         warnings.filterwarnings("ignore", "Action space for each agent probably")
@@ -329,7 +329,7 @@ def test_without_pygame_check_env_and_render_test_pass():
         capture_output=True,
         text=True,
         timeout=600,
-        cwd=Path(__file__).resolve().parent.parent,
+        cwd=Path(__file__).resolve().parents[2],
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip().endswith("ok")

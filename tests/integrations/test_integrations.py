@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests_clients"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests" / "clients"))
 from recipes import (  # noqa: E402
     CLIENT_OF,
     COLUMNS,

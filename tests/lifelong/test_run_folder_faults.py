@@ -15,9 +15,9 @@ import pytest
 
 from flatland_ma.cli import main
 from flatland_ma.lifelong.report import RunError, load_run, summarise
-from tests.test_lifelong_metrics import write_run
+from tests.lifelong.test_lifelong_metrics import write_run
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def refuse_constants(token: str):

@@ -1,5 +1,5 @@
 """The studio served on a free port of 127.0.0.1 from a thread, and opened in headless
-Chromium (Debian's, driven by Playwright's Python package, started as tests_docs/ starts
+Chromium (Debian's, driven by Playwright's Python package, started as tests/docs/ starts
 it). ``make studio-check`` runs these tests; they are not in the default suite."""
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests_docs"))
+ROOT = Path(__file__).resolve().parents[3]
+sys.path.insert(0, str(ROOT / "tests" / "docs"))
 from site_files import chromium  # noqa: E402
 
 STARTUP_BOUND = 120.0

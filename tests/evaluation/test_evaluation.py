@@ -29,7 +29,7 @@ from flatland_ma.evaluation import (  # noqa: E402
 from flatland_ma.evaluation.runner import focal_agents  # noqa: E402
 from flatland_ma.scenario.errors import ScenarioError  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 TINY = """\
 description: "two short tasks"

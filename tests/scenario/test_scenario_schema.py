@@ -15,7 +15,7 @@ from flatland_ma.scenario.json_schema import file_schema, schema_text
 from flatland_ma.scenario.loader import read_raw, scenario_path, schema_path, validate
 from flatland_ma.scenario.reference import render, sections
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_the_format_reference_matches_the_schema():

@@ -30,7 +30,7 @@ from flatland_ma.policies.named import make_policy  # noqa: E402
 from flatland_ma.policies.networks import ActorCritic  # noqa: E402
 from tests.checkpoint_helpers import exported, write_old_checkpoint  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _batch(env, agents=None):

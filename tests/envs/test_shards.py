@@ -15,7 +15,7 @@ from flatland_ma.envs.gym_vector import FlatlandVectorEnv
 from flatland_ma.envs.registration import gym_id
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
-from tests.test_batched_scenarios import ALIKE
+from tests.envs.test_batched_scenarios import ALIKE
 
 GOALS = {
     "items": [
@@ -122,6 +122,6 @@ def test_make_vec_spreads_worlds_over_processes():
 
 @pytest.mark.parametrize("scenario", ALIKE)
 def test_every_scenario_over_two_processes_matches_one_batch(scenario):
-    # One batch matches separate envs on each of these (tests/test_batched_scenarios.py);
+    # One batch matches separate envs on each of these (tests/envs/test_batched_scenarios.py);
     # this closes the chain for the processes: 3 worlds of 9-step episodes, 24 steps.
     _same_as_one_batch(scenario, 3, 2, 24, context="fork", max_cycles=9)

@@ -218,7 +218,7 @@ def test_an_eye_exactly_on_grid_lines_sees_the_wall():
 
 # The faster kernel (issue 29) against the frozen one before it: bit for bit.
 
-SCENARIOS = sorted(p.stem for p in (Path(__file__).parent.parent / "scenarios").glob("*.yaml"))
+SCENARIOS = sorted(p.stem for p in (Path(__file__).parents[2] / "scenarios").glob("*.yaml"))
 
 
 def _outputs_equal(a: Outputs, b: Outputs) -> bool:

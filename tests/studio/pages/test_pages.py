@@ -11,7 +11,7 @@ from PIL import Image
 
 from flatland_ma.scenario.loader import list_scenarios
 
-SHOTS = Path(__file__).resolve().parents[1] / "docs" / "images" / "studio"
+SHOTS = Path(__file__).resolve().parents[3] / "docs" / "images" / "studio"
 EATING_SEED = 1
 """fruits_poisons at this seed: going straight ahead eats a fruit within 7 steps."""
 

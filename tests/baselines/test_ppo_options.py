@@ -149,7 +149,7 @@ def test_a_curriculum_trains_on_each_stage_in_turn_for_its_steps(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "path", sorted((Path(__file__).parent.parent / "baselines" / "curricula").glob("*.yaml"))
+    "path", sorted((Path(__file__).parents[2] / "baselines" / "curricula").glob("*.yaml"))
 )
 def test_the_shipped_curricula_load_and_end_on_their_task(path):
     from baselines.curriculum import curriculum_stages

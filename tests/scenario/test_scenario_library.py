@@ -21,7 +21,7 @@ from flatland_ma.policies import (
 from flatland_ma.scenario.loader import scenario_dir, scenario_path
 from flatland_ma.scenario.spec_reference import ReferenceSpec
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = flatland_ma.list_scenarios()
 
 

@@ -1,4 +1,4 @@
-"""Malformed stream files, fuzzed as scenario files are (tests/test_scenario_fuzz.py):
+"""Malformed stream files, fuzzed as scenario files are (tests/scenario/test_scenario_fuzz.py):
 whatever a file says, loading it either works or raises ``ScenarioError`` naming the file
 and, for a fault at a key, the line and the key path. No other exception."""
 
@@ -16,7 +16,7 @@ from flatland_ma.lifelong import list_streams, load_stream
 from flatland_ma.lifelong.streams import stream_dir
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.loader import scenario_dir
-from tests.test_scenario_fuzz import mangle, mutate
+from tests.scenario.test_scenario_fuzz import mangle, mutate
 
 NAMES = list_streams()
 FILES = {name: stream_dir() / f"{name}.yaml" for name in NAMES}

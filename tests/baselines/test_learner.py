@@ -21,7 +21,7 @@ from baselines.networks import Agent
 from baselines.ppo_learner import Overlapped, gae
 from flatland_ma.envs.vector import BatchedParallelEnv
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TINY = {"num_envs": 2, "num_steps": 16, "total_timesteps": 128}
 
 
