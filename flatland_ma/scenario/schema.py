@@ -95,7 +95,6 @@ __all__ = [
 # sections (the work budget, bounds, names, teams). No docstring: the JSON schema would
 # take it as the file's description, which json_schema.py writes.
 class ScenarioSpec(ScenarioFields):
-
     @model_validator(mode="before")
     @classmethod
     def _team_bodies(cls, data):
