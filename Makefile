@@ -54,28 +54,28 @@ $(RLLIB)/.installed: pyproject.toml baselines/requirements-rllib.txt
 	touch $(RLLIB)/.installed
 
 test-rllib: $(RLLIB)/.installed
-	$(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests_rllib
+	$(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests/rllib
 
-# Every recipe of docs/integrations.md on every scenario type it lists (tests_clients/):
+# Every recipe of docs/integrations.md on every scenario type it lists (tests/clients/):
 # the clients extra's in .venv, AgileRL and BenchMARL each in an environment of its own
-# (.venv-clients-NAME from tests_clients/requirements-NAME.txt: their pins clash with ours),
+# (.venv-clients-NAME from tests/clients/requirements-NAME.txt: their pins clash with ours),
 # RLlib in make test-rllib's.
 CLIENT_VENVS := agilerl benchmarl
 MAIN_CLIENTS := sb3 sb3-batched torchrl torchrl-batched skrl skrl-ippo skrl-batched tianshou cleanrl batched
-.venv-clients-%/.installed: pyproject.toml tests_clients/requirements-%.txt
+.venv-clients-%/.installed: pyproject.toml tests/clients/requirements-%.txt
 	$(PYTHON) -m venv .venv-clients-$*
 	.venv-clients-$*/bin/python -m pip install --quiet --upgrade pip
 	.venv-clients-$*/bin/python -m pip install --quiet "$(TORCH)" || \
 		.venv-clients-$*/bin/python -m pip install --quiet "$(TORCH)" --index-url https://download.pytorch.org/whl/cpu
-	.venv-clients-$*/bin/python -m pip install --quiet -r tests_clients/requirements-$*.txt
+	.venv-clients-$*/bin/python -m pip install --quiet -r tests/clients/requirements-$*.txt
 	.venv-clients-$*/bin/python -m pip install --quiet -e .
 	touch $@
 
 test-clients: $(STAMP) $(RLLIB)/.installed $(foreach c,$(CLIENT_VENVS),.venv-clients-$(c)/.installed)
-	FLATLAND_CLIENTS="$(MAIN_CLIENTS)" $(BIN)/python -m pytest -q -p no:cacheprovider tests_clients
-	FLATLAND_CLIENTS=rllib $(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests_clients
+	FLATLAND_CLIENTS="$(MAIN_CLIENTS)" $(BIN)/python -m pytest -q -p no:cacheprovider tests/clients
+	FLATLAND_CLIENTS=rllib $(RLLIB)/bin/python -m pytest -q -p no:cacheprovider tests/clients
 	for c in $(CLIENT_VENVS); do \
-		FLATLAND_CLIENTS=$$c .venv-clients-$$c/bin/python -m pytest -q -p no:cacheprovider tests_clients || exit 1; \
+		FLATLAND_CLIENTS=$$c .venv-clients-$$c/bin/python -m pytest -q -p no:cacheprovider tests/clients || exit 1; \
 	done
 
 # A million agent-steps of fruits_poisons_multi and 500 env creations in one process: RSS
@@ -116,7 +116,7 @@ performance-page: $(STAMP) $(VMAS_VENV)/.installed
 
 # The scenario format's reference and the JSON schema shipped for editors, both written
 # from the models, and the shipped scenarios' index (what registering ids needs), from the
-# files (tests/test_scenario_schema.py and tests/test_registration_index.py check them).
+# files (tests/scenario/test_scenario_schema.py and tests/envs/test_registration_index.py check them).
 reference: $(STAMP)
 	$(BIN)/python -m flatland_ma.scenario.reference docs/scenarios.md scenarios/scenario.schema.json
 
@@ -127,7 +127,7 @@ scenario-page: $(STAMP)
 	@test -n "$(NAME)" || (echo "usage: make scenario-page NAME=<scenario>" && exit 2)
 	$(BIN)/flatland-ma record $(NAME) --policy planner --steps 60 --seed 1 --out docs/images/scenarios/$(NAME).png
 	$(BIN)/python docs/_ext/animations.py $(NAME)
-	$(BIN)/python -m flatland_ma.scores_header $(NAME)
+	$(BIN)/python -m flatland_ma.policies.scores_header $(NAME)
 
 # Pictures of the scenarios for the README and docs/ (after the format reference), and a
 # short animation for every scenario page without a recording of its own (docs/images/animations).
@@ -150,7 +150,7 @@ docs: reference
 # The documentation site in docs/_build/html (the docs extra in .venv): the catalogue pages
 # are written from the shipped scenario, stream and suite files and the tutorials run at
 # every build; any warning fails it. docs-check opens every page in headless Chromium
-# (Debian's chromium package) and saves the README's screenshots (tests_docs/).
+# (Debian's chromium package) and saves the README's screenshots (tests/docs/).
 DOCS_STAMP := $(VENV)/.docs-installed
 $(DOCS_STAMP): $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[docs]"
@@ -160,7 +160,7 @@ docs-site: $(DOCS_STAMP)
 	$(BIN)/sphinx-build -W --keep-going -b html docs docs/_build/html
 
 docs-check: docs-site
-	$(BIN)/python -m pytest -q -p no:cacheprovider tests_docs
+	$(BIN)/python -m pytest -q -p no:cacheprovider tests/docs
 
 # The studio's pages (flatland-ma studio): built from studio/frontend (Vite, CodeMirror,
 # package-lock.json pinned) into flatland_ma/studio/static, which is committed and shipped
@@ -170,7 +170,7 @@ studio-assets:
 	cd studio/frontend && npm ci --no-audit --no-fund && npx vite build
 
 studio-check: $(DOCS_STAMP)
-	$(BIN)/python -m pytest -q -p no:cacheprovider tests_studio
+	$(BIN)/python -m pytest -q -p no:cacheprovider tests/studio/pages
 
 # The paper's experiment: DQN, A3C and DFP on fruits_poisons, SEEDS seeds of 250k steps
 # each, WORKERS seeds at a time (runs/ resumes where it stopped); A3C also with lr 1e-4,
@@ -214,8 +214,8 @@ benchmark-table: $(STAMP)
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)
-	$(BIN)/ruff check flatland_ma baselines tests tests_rllib tests_clients tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
-	$(BIN)/ruff format --check flatland_ma baselines tests tests_rllib tests_clients tests_docs tests_studio benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff check flatland_ma baselines tests benchmarks scenarios docs/conf.py docs/_ext
+	$(BIN)/ruff format --check flatland_ma baselines tests benchmarks scenarios docs/conf.py docs/_ext
 	$(BIN)/pyright
 
 clean:

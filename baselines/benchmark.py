@@ -23,7 +23,7 @@ A task is a shipped scenario (``flatland_ma.list_scenarios()``) or a shipped str
   of a life). The never-ending stream is scored on its first ``never_ending_steps`` steps.
 
 Methods: ``random`` (every agent uniform at random, seeded by the seed), ``scripted`` (the
-reference solver ``flatland_ma.scores_header.solver_names`` gives each agent, seeded by the
+reference solver ``flatland_ma.policies.scores_header.solver_names`` gives each agent, seeded by the
 seed), ``open_loop`` (actions by the time step alone: the best of a few random schedules on
 training episodes, ``baselines.open_loop``) and ``ppo``: ``baselines.ppo`` on a scenario,
 ``baselines.lifelong --method finetune`` through a stream of tasks and
@@ -79,7 +79,7 @@ from baselines.benchmark_config import (
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.policies.named import make_policy
 from flatland_ma.policies.rollout import play_episode
-from flatland_ma.scores_header import solver_names
+from flatland_ma.policies.scores_header import solver_names
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "results" / "benchmark"

@@ -27,6 +27,7 @@ import numpy as np
 import torch
 
 import flatland_ma
+from flatland_ma.envs.registration import gym_id
 
 # The paper's trunk and Keras' initialisation, for the baselines that import them from here.
 from flatland_ma.policies.networks import (  # noqa: F401
@@ -36,7 +37,6 @@ from flatland_ma.policies.networks import (  # noqa: F401
     keras_init,
     trunk_length,
 )
-from flatland_ma.registration import gym_id
 
 FIXED_COLUMNS = ("seed", "episode", "step", "agent", "return", "wall_time")
 """Every run's CSV columns; the scenario's counters go between ``return`` and ``wall_time``.

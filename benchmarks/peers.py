@@ -7,7 +7,7 @@ lidar per agent (``benchmarks/others/vmas_lidar.py``); flatland_ma's batched env
 the same lidar in place of its camera, and with the paper's 64-ray RGB-D camera. For each
 size and core count the three rows are taken one after another, so they share the
 machine's state; each row records the cores other processes used while it ran and the
-load average (``flatland_ma.bench_load``), and is flagged busy when others held a quarter
+load average (``flatland_ma.bench.load``), and is flagged busy when others held a quarter
 of a core or more.
 
     VMAS_PYTHON=.venv-vmas/bin/python python -m benchmarks.peers
@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import Any
 
 import flatland_ma
-from flatland_ma.bench_load import LoadMeter
-from flatland_ma.bench_scale import cores, timed_steps
+from flatland_ma.bench.load import LoadMeter
+from flatland_ma.bench.scale import cores, timed_steps
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "peers.json"

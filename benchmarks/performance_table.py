@@ -61,7 +61,7 @@ def table(data: dict) -> str:
 
 
 def breakdown_table(rows: list[dict]) -> str:
-    """Where a world-step goes (``flatland_ma.bench_breakdown``), one line per row."""
+    """Where a world-step goes (``flatland_ma.bench.breakdown``), one line per row."""
     lines = [
         "| where a world-step goes, us of CPU | step | physics | rays | rest "
         "| reset (its share) | total | bare physics |",

@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 import flatland_ma  # noqa: E402
 from flatland_ma.sensors import kernel  # noqa: E402
-from flatland_ma.sensors.suite import compiled_kernel  # noqa: E402
+from flatland_ma.sensors.sensor_suite import compiled_kernel  # noqa: E402
 from tests import kernel_reference  # noqa: E402
 
 SCENARIOS = ("fruits_poisons", "fruits_poisons_multi", "forage_rooms_multi", "maze_large")

@@ -6,7 +6,7 @@ env = flatland_ma.env("fruits_poisons")                  # PettingZoo AEC
 gymnasium.make("flatland_ma/FruitsPoisons-v0")           # Gymnasium, one agent
 
 Importing the package registers the Gymnasium ids (from the shipped scenarios' index:
-no file is parsed until an env is made, ``flatland_ma.registration``); the scenario
+no file is parsed until an env is made, ``flatland_ma.envs.registration``); the scenario
 loader, the physics, the compiled kernels and the PettingZoo interfaces are imported on
 first use of the names that need them (``load_scenario``, ``parallel_env``, ``env``,
 ``check_scenario``), so that a command such as ``flatland-ma list`` starts quickly.
@@ -18,7 +18,7 @@ import importlib
 from importlib.metadata import PackageNotFoundError, version
 from typing import TYPE_CHECKING
 
-from flatland_ma.registration import register_gym_ids, register_stream_ids
+from flatland_ma.envs.registration import register_gym_ids, register_stream_ids
 from flatland_ma.scenario.shipped import list_scenarios
 
 # OpenMP's idle threads (the ray kernel's, and torch's: one library) sleep instead of
@@ -30,11 +30,12 @@ from flatland_ma.sensors import threads as _threads  # noqa: F401
 if TYPE_CHECKING:
     from flatland_ma.build.feasibility import check_scenario
     from flatland_ma.envs.aec import env
+    from flatland_ma.envs.gym_vector import FlatlandVectorEnv
     from flatland_ma.envs.parallel import FlatlandParallelEnv
     from flatland_ma.envs.parallel import FlatlandParallelEnv as parallel_env
     from flatland_ma.envs.shards import ShardedParallelEnv
-    from flatland_ma.envs.vector import BatchedParallelEnv
-    from flatland_ma.extensions import register
+    from flatland_ma.envs.vector import AUTORESET_MODE, BatchedParallelEnv
+    from flatland_ma.scenario.extensions import register
     from flatland_ma.scenario.loader import load_scenario
 
 try:  # the installed distribution's version: pyproject.toml is its one source
@@ -54,13 +55,19 @@ _LAZY = {
     "check_scenario": ("flatland_ma.build.feasibility", "check_scenario"),
     "BatchedParallelEnv": ("flatland_ma.envs.vector", "BatchedParallelEnv"),
     "ShardedParallelEnv": ("flatland_ma.envs.shards", "ShardedParallelEnv"),
-    "register": ("flatland_ma.extensions", "register"),
+    "FlatlandVectorEnv": ("flatland_ma.envs.gym_vector", "FlatlandVectorEnv"),
+    "AUTORESET_MODE": ("flatland_ma.envs.vector", "AUTORESET_MODE"),
+    "register": ("flatland_ma.scenario.extensions", "register"),
     "load_scenario": ("flatland_ma.scenario.loader", "load_scenario"),
 }
 """Names imported on first use: ``parallel_env(scenario="fruits_poisons",
 render_mode=None, max_cycles=None, **overrides)`` is the parallel env's class;
 ``register(spec, implementation)`` adds a sensor, rule, part or generator from your own
-package (``flatland_ma.extensions``)."""
+package (``flatland_ma.scenario.extensions``). Many worlds at once: the batched env
+(``BatchedParallelEnv``, ``flatland_ma.envs.vector``, with its ``AUTORESET_MODE``), the
+same worlds over processes (``ShardedParallelEnv``, ``flatland_ma.envs.shards``) and the
+Gymnasium vector env of a single-agent scenario (``FlatlandVectorEnv``, what
+``gymnasium.make_vec`` builds; ``flatland_ma.envs.gym_vector``)."""
 
 
 def __getattr__(name: str):
@@ -73,11 +80,13 @@ def __getattr__(name: str):
 
 
 __all__ = [
+    "AUTORESET_MODE",
     "GYM_IDS",
     "STREAM_GYM_IDS",
     "BatchedParallelEnv",
     "ShardedParallelEnv",
     "FlatlandParallelEnv",
+    "FlatlandVectorEnv",
     "__version__",
     "check_scenario",
     "env",

@@ -1,6 +1,6 @@
 """The ray kernel as it was before issue 29 made it faster, frozen: the reference that the
 new kernel's results must equal bit for bit (image, distance, entity hit), in
-tests/test_kernel.py, and the "before" of benchmarks/rays.py. Used nowhere else; do not
+tests/sensors/test_kernel.py, and the "before" of benchmarks/rays.py. Used nowhere else; do not
 edit it, except to keep it compiling.
 
 It reads the same named tuples as ``flatland_ma.sensors.kernel.observe`` (fields added

@@ -110,7 +110,7 @@ from pathlib import Path
 
 import flatland_ma
 import my_world, my_world.faulty
-from flatland_ma.registry import ExtensionError
+from flatland_ma.kinds.registry import ExtensionError
 from flatland_ma.scenario.errors import ScenarioError
 
 home = Path(sys.argv[1])
@@ -223,7 +223,8 @@ def test_an_unknown_kind_says_how_kinds_are_added(found):
 
 def test_a_from_spec_that_returns_no_instance_is_named_with_its_class():
     from flatland_ma.agents.parts import Part
-    from flatland_ma.registry import ExtensionError, made_from_spec
+    from flatland_ma.build.kind_faults import made_from_spec
+    from flatland_ma.kinds.registry import ExtensionError
     from flatland_ma.sensors.sensor import Sensor
 
     class Lamp:  # from_spec returned something else than a Part or a Sensor

@@ -17,8 +17,8 @@ import pytest
 
 import flatland_ma
 from flatland_ma.agents.parts import PART_KINDS, Control, Jointed, jointed_link
-from flatland_ma.extensions import register
-from flatland_ma.registry import ExtensionError
+from flatland_ma.kinds.registry import ExtensionError
+from flatland_ma.scenario.extensions import register
 from flatland_ma.scenario.spec_sensors import CameraSpec, SensorBaseSpec
 from flatland_ma.sensors.sensor import SENSOR_KINDS, Sensor
 

@@ -1,5 +1,8 @@
 """The house's seams: layers import downward, loading builds nothing, and sensors, rules,
-parts and generators plug in through one interface each."""
+parts and generators plug in through one interface each; and its rooms: no module loose
+at the package's top, no import circle, no file or function past its size, no reads of
+another module's private members (``tests/house_rules.py`` counts them all:
+``python -m tests.house_rules``)."""
 
 import ast
 import math
@@ -21,6 +24,7 @@ from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.sensors.sensor import SENSOR_KINDS
 from flatland_ma.tasks.rule import RULE_KINDS
 from flatland_ma.world.entities import HingedDoor, Item, SlidingDoor
+from tests import house_rules
 from tests.world_helpers import place, walk
 
 PACKAGE = Path(__file__).resolve().parent.parent / "flatland_ma"
@@ -116,6 +120,60 @@ def test_no_two_modules_import_each_other_even_lazily():
                 seen.add(module)
                 frontier += [(m, [*path, m]) for m in graph[module]]
     assert loops == []
+
+
+def test_nothing_but_the_door_at_the_package_top():
+    """Every module lives in the subpackage of its layer; ``flatland_ma/__init__.py``
+    alone stands at the top."""
+    assert house_rules.top_level_modules() == ["__init__.py"]
+
+
+def test_every_subpackage_is_a_layer_and_no_import_goes_up():
+    """Each subpackage has its floor (``house_rules.LAYERS``) and imports only the floors
+    beneath it, wherever the import is (in a function, for the type checker alone)."""
+    assert house_rules.unplaced() == []
+    assert house_rules.up_imports() == []
+
+
+def test_no_import_circle_in_the_package():
+    """No two modules of flatland_ma need each other: not through imports made when they
+    load, nor through the type checker's, nor through those inside functions."""
+    for graph in house_rules.import_graphs():
+        inside = {
+            module: {m for m in imported if m.startswith("flatland_ma")}
+            for module, imported in graph.items()
+            if module.startswith("flatland_ma")
+        }
+        assert house_rules.circles(inside) == []
+
+
+def test_the_checker_finds_a_circle_and_an_import_up():
+    """The rules above can fail: a circle of three, and a sensor that reads the file format."""
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}
+    assert house_rules.circles(graph) == [["a", "b", "c"]]
+    assert not house_rules.may_import("sensors", "scenario")
+    assert not house_rules.may_import("world", "envs")
+    assert house_rules.may_import("build", "scenario") and house_rules.may_import(
+        "scenario", "kinds"
+    )
+
+
+def test_only_the_physics_bridge_touches_pymunk_internals():
+    """``world/physics.py`` is the one bridge to pymunk beyond its documented API."""
+    touching = [row.split(":")[0] for row in house_rules.pymunk_internals()]
+    assert touching == ["flatland_ma/world/physics.py"]
+
+
+def test_no_library_file_is_over_400_lines():
+    assert house_rules.long_files_and_functions()[0] == []
+
+
+def test_no_function_is_over_60_lines():
+    assert house_rules.long_files_and_functions()[1] == []
+
+
+def test_no_module_reads_another_modules_private_members():
+    assert house_rules.private_reads() == []
 
 
 def test_loading_every_scenario_builds_no_space(monkeypatch):

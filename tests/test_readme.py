@@ -20,7 +20,7 @@ def test_the_layout_names_every_package_and_module_of_flatland_ma():
         [f"{p.name}/" for p in package.iterdir() if (p / "__init__.py").is_file()]
         + [p.name for p in package.glob("*.py") if p.name != "__init__.py"]
     )
-    assert "envs/" in names and "vector.py" in names and "bench_sensors.py" in names
+    assert "envs/" in names and "bench/" in names and "cli/" in names
     # An entry of flatland_ma/ starts a line indented by two spaces; a file named within
     # another entry's description (envs/ has a vector.py too) is not one.
     entries = {m.group(1) for m in re.finditer(r"^  (\S+)", layout(), re.MULTILINE)}

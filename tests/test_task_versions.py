@@ -10,8 +10,8 @@ import flatland_ma
 from baselines.benchmark import ROOT, VersionMismatch, run, task_versions
 from baselines.benchmark_config import load_config
 from baselines.benchmark_table import _check_current, read_results
-from flatland_ma import registration
-from flatland_ma.registration import gym_id, register_gym_ids
+from flatland_ma.envs import registration
+from flatland_ma.envs.registration import gym_id, register_gym_ids
 from flatland_ma.scenario.errors import ScenarioError
 
 

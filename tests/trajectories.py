@@ -35,7 +35,7 @@ from gymnasium import spaces
 
 import flatland_ma
 from flatland_ma.policies.named import make_policy
-from flatland_ma.scores_header import solver_names
+from flatland_ma.policies.scores_header import solver_names
 
 DATA = Path(__file__).parent / "data" / "trajectories"
 RECORDED_FROM = "e33516d"

@@ -12,7 +12,7 @@ import argparse
 import json
 
 import flatland_ma
-from flatland_ma.bench_scale import bench_worlds, cores
+from flatland_ma.bench.scale import bench_worlds, cores
 
 SENSORS = {"camera": {}, "lidar": {"agent": {"sensors": [{"type": "lidar", "rays": 64}]}}}
 SCENARIOS = {1: "fruits_poisons", 4: "fruits_poisons_multi"}

@@ -25,9 +25,9 @@ from pages import (
 )
 from scenario_page import benchmark_section, scenario_page
 
+from flatland_ma.envs.registration import gym_id, stream_gym_id
 from flatland_ma.evaluation.suite import list_suites, load_suite, suite_dir
 from flatland_ma.lifelong.streams import list_streams, load_stream
-from flatland_ma.registration import gym_id, stream_gym_id
 from flatland_ma.scenario.loader import list_scenarios, load_scenario, stream_dir
 
 FOLDER = "catalogue"

@@ -12,7 +12,7 @@ from pathlib import Path
 from pages import cell, write_if_changed
 
 from flatland_ma.cli import DESCRIPTION, build_parser
-from flatland_ma.options import DefaultsFormatter
+from flatland_ma.cli.options import DefaultsFormatter
 
 PAGE = "cli.md"
 USAGE_COLUMNS = "88"

@@ -20,7 +20,7 @@ from pages import (
 )
 
 import flatland_ma
-from flatland_ma.registration import gym_id
+from flatland_ma.envs.registration import gym_id
 from flatland_ma.scenario.colors import color_text
 from flatland_ma.scenario.loader import load_scenario, scenario_path
 from flatland_ma.scenario.schema import ScenarioSpec

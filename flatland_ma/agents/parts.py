@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import pymunk
 
 from flatland_ma.agents.body import AgentBody
-from flatland_ma.registry import Kinded, Kinds
+from flatland_ma.kinds.registry import Kinded, Kinds
 from flatland_ma.world.entities import Category, CollisionType, Entity, darker
 
 PART_KINDS = Kinds("flatland_ma.agents", "part")

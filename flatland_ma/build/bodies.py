@@ -16,7 +16,8 @@ import pymunk
 from flatland_ma.agents.body import AgentBody, make_agent_body
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.agents.parts import PART_KINDS, ArmSegment, Head, Link, Part, agent_filter
-from flatland_ma.registry import ExtensionError, made_from_spec, make_kind
+from flatland_ma.build.kind_faults import made_from_spec, make_kind
+from flatland_ma.kinds.registry import ExtensionError
 from flatland_ma.scenario.spec_agent import AgentSpec, ChannelSpec
 from flatland_ma.sensors.hearing import Hearing
 from flatland_ma.sensors.noise import Noise

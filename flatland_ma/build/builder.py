@@ -29,16 +29,16 @@ from flatland_ma.agents.body import AgentBody
 from flatland_ma.agents.grasp import Hands
 from flatland_ma.build.bodies import footprint, make_agent, make_parts
 from flatland_ma.build.capacity import spawn_group_of, spawn_groups
-from flatland_ma.build.entities import item_group, make_item, make_zone
+from flatland_ma.build.entity_factories import item_group, make_item, make_zone
 from flatland_ma.build.generators import generator_for
 from flatland_ma.build.ground import Ground
+from flatland_ma.build.kind_faults import make_kind
 from flatland_ma.build.layout import explicit_layout
 from flatland_ma.build.reach import reachable_region
-from flatland_ma.registry import make_kind
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import ChannelSpec, ScenarioSpec
 from flatland_ma.sensors.sensor import Sensor
-from flatland_ma.sensors.suite import Sensors
+from flatland_ma.sensors.sensor_suite import Sensors
 from flatland_ma.tasks.rule import RULE_KINDS, Rule, Spawn, TaskContext
 from flatland_ma.tasks.task import Task, new_records
 from flatland_ma.world.channel import Channel

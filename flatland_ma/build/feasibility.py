@@ -15,7 +15,8 @@ import numpy as np
 from flatland_ma.build.bodies import fastest_parts, footprint, make_parts, make_sensors
 from flatland_ma.build.builder import lay_ground, populate
 from flatland_ma.build.capacity import check_capacity
-from flatland_ma.registry import ExtensionError, fault_in_extension
+from flatland_ma.build.kind_faults import fault_in_extension
+from flatland_ma.kinds.registry import ExtensionError
 from flatland_ma.scenario.checks import wall_thicknesses
 from flatland_ma.scenario.errors import Problem, ScenarioError, SpecError
 from flatland_ma.scenario.loader import load_scenario

@@ -14,9 +14,10 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from flatland_ma.build.ground import Ground
+from flatland_ma.build.kind_faults import make_kind
 from flatland_ma.build.layout import DoorPiece, Layout, axis_piece, axis_point, merge, style
 from flatland_ma.build.scatter import scatter_obstacles
-from flatland_ma.registry import Kinded, Kinds, make_kind
+from flatland_ma.kinds.registry import Kinded, Kinds
 from flatland_ma.scenario.budget import maze_size
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import DoorSpec, ScenarioSpec

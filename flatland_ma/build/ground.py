@@ -17,7 +17,12 @@ from functools import partial
 import numpy as np
 
 from flatland_ma.build.capacity import spawn_groups
-from flatland_ma.build.entities import make_arena_walls, make_door, make_obstacle, make_walls
+from flatland_ma.build.entity_factories import (
+    make_arena_walls,
+    make_door,
+    make_obstacle,
+    make_walls,
+)
 from flatland_ma.build.layout import DoorPiece, Layout, WallPiece
 from flatland_ma.scenario.errors import SpecError, format_path
 from flatland_ma.scenario.schema import ScenarioSpec

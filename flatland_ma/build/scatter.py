@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pymunk
 
-from flatland_ma.build.entities import make_obstacle
+from flatland_ma.build.entity_factories import make_obstacle
 from flatland_ma.scenario.errors import SpecError
 from flatland_ma.scenario.schema import (
     BoxObstacle,

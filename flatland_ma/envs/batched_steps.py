@@ -14,7 +14,7 @@ from flatland_ma.agents.actuators import Actuator
 from flatland_ma.agents.motors import Motors
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.sensors.camera import Camera
-from flatland_ma.sensors.suite import Sensors
+from flatland_ma.sensors.sensor_suite import Sensors
 
 
 def checked_at_once(

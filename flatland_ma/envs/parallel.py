@@ -47,7 +47,7 @@ from flatland_ma.envs.render_modes import KNOWN_RENDER_MODES, RENDER_MODES
 from flatland_ma.render.display import missing_display, no_window
 from flatland_ma.scenario.loader import load_scenario
 from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.sensors.suite import observation_space
+from flatland_ma.sensors.sensor_suite import observation_space
 
 
 class FlatlandParallelEnv(ParallelEnv):
@@ -397,7 +397,7 @@ class FlatlandParallelEnv(ParallelEnv):
             return None
         if self.episode is None:
             raise RuntimeError("call reset() before render()")
-        from flatland_ma.render.topdown import Renderer
+        from flatland_ma.render.renderer import Renderer
 
         if self._renderer is None:
             self._renderer = Renderer(self.spec, self._sensors)

@@ -63,7 +63,7 @@ from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.envs.resets import autoreset_mode_of, final_infos, reset_mask_of
 from flatland_ma.envs.slots import SlotBuffers, slot_spaces
 from flatland_ma.scenario.budget import check_batch
-from flatland_ma.sensors.suite import Sensors, WorldsKernel
+from flatland_ma.sensors.sensor_suite import Sensors, WorldsKernel
 
 AUTORESET_MODE = AutoresetMode.NEXT_STEP
 """The batched envs' default autoreset mode (``flatland_ma.envs.resets``)."""

@@ -20,7 +20,7 @@ flatten=True)`` (``flatland_ma.envs.flatten``), with channel actions numbered as
 learns from them as from any step, as it does for its own tasks with varying agents).
 
 BenchMARL is imported only with this module (install it in an environment of its own:
-``tests_clients/requirements-benchmarl.txt`` and ``make test-clients``).
+``tests/clients/requirements-benchmarl.txt`` and ``make test-clients``).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from flatland_ma.play.keys import NEXT_AGENT, QUIT
 from flatland_ma.play.session import Session
-from flatland_ma.render.topdown import Renderer
+from flatland_ma.render.renderer import Renderer
 
 LINE_HEIGHT = 15
 PAD = 4

@@ -1,3 +1,3 @@
 """Drawing what happens; it reads the world and never writes it: the top-down view
-(``topdown``), each agent's senses as panels (``senses``), the pygame window
+(``renderer``), each agent's senses as panels (``senses``), the pygame window
 (``window``) and videos and stills (``video``)."""

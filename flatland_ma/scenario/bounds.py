@@ -14,12 +14,12 @@ from typing import TYPE_CHECKING
 from flatland_ma.scenario.budget import maze_size
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
 
-if TYPE_CHECKING:  # the schema imports these checks
-    from flatland_ma.scenario.schema import ScenarioSpec
+if TYPE_CHECKING:
     from flatland_ma.scenario.spec_objects import Obstacle
+    from flatland_ma.scenario.spec_scenario import ScenarioFields
 
 
-def check_bounds(spec: ScenarioSpec) -> None:
+def check_bounds(spec: ScenarioFields) -> None:
     """Raise ``SpecError`` at the first thing that lies outside the arena or cannot fit."""
     _check_areas(spec)
     _check_geometry(spec)
@@ -30,7 +30,7 @@ def check_bounds(spec: ScenarioSpec) -> None:
     _check_fixed_items(spec)
 
 
-def _check_areas(spec: ScenarioSpec) -> None:
+def _check_areas(spec: ScenarioFields) -> None:
     width, height = spec.arena.size
 
     def inside(x0: float, y0: float, x1: float, y1: float) -> bool:
@@ -66,7 +66,7 @@ def _check_areas(spec: ScenarioSpec) -> None:
             raise SpecError(("teams", i, "spawn", "area"), f"spawn area lies {where}")
 
 
-def _check_geometry(spec: ScenarioSpec) -> None:
+def _check_geometry(spec: ScenarioFields) -> None:
     """Walls, corridors and doors lie in the arena (ends may reach into its boundary walls)."""
     width, height = spec.arena.size
     margin = spec.arena.wall.thickness
@@ -96,7 +96,7 @@ def _check_geometry(spec: ScenarioSpec) -> None:
             check(("corridors", i, "width"), x, y, "the corridor's side wall at")
 
 
-def _check_openings(spec: ScenarioSpec) -> None:
+def _check_openings(spec: ScenarioFields) -> None:
     for r, room in enumerate(spec.rooms):
         x0, y0, x1, y1 = room.rect
         for o, opening in enumerate(room.openings):
@@ -112,7 +112,7 @@ def _check_openings(spec: ScenarioSpec) -> None:
                 )
 
 
-def _check_fit(spec: ScenarioSpec) -> None:
+def _check_fit(spec: ScenarioFields) -> None:
     """An agent's base and every item must fit in the arena (an agent with its parts is
     checked when the parts are known: ``build.feasibility``)."""
     width, height = spec.arena.size
@@ -131,7 +131,7 @@ def _check_fit(spec: ScenarioSpec) -> None:
             )
 
 
-def _check_mazes(spec: ScenarioSpec) -> None:
+def _check_mazes(spec: ScenarioFields) -> None:
     width, height = spec.arena.size
     for index, gen in enumerate(spec.layout.generators):
         if gen.generator != "maze":
@@ -151,7 +151,7 @@ def _check_mazes(spec: ScenarioSpec) -> None:
             )
 
 
-def _check_grid_rooms(spec: ScenarioSpec) -> None:
+def _check_grid_rooms(spec: ScenarioFields) -> None:
     """The opening in each shared wall of a grid of rooms fits in the wall, with wall on
     both sides of it."""
     width, height = spec.arena.size
@@ -168,7 +168,7 @@ def _check_grid_rooms(spec: ScenarioSpec) -> None:
             )
 
 
-def _check_fixed_items(spec: ScenarioSpec) -> None:
+def _check_fixed_items(spec: ScenarioFields) -> None:
     """No two items at fixed places overlap (binned by place, so many items stay fast)."""
     placed = [
         (x, y, item.radius, ("items", g, "positions", k))

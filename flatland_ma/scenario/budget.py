@@ -20,13 +20,13 @@ from typing import TYPE_CHECKING
 
 from flatland_ma.scenario import sizes
 from flatland_ma.scenario.errors import KeyPath, SpecError, format_path
+from flatland_ma.scenario.types import (
+    MAX_GROUPS as MAX_GROUPS,  # a limit of the specs, listed here too
+)
 
-if TYPE_CHECKING:  # the schema imports this check
-    from flatland_ma.scenario.schema import ScenarioSpec
+if TYPE_CHECKING:
+    from flatland_ma.scenario.spec_scenario import ScenarioFields
 
-MAX_GROUPS = 64
-"""Item groups, zones, teams, rules and layout generators, each (the shipped scenarios
-have at most 4 of any): several checks and every step go over them one by one."""
 MAX_SHAPES = 20_000
 """Solid shapes in all: walls (the file's, rooms', corridors' and generated ones), doors,
 obstacles (fixed and scattered) and agents' bodies with their parts. The largest shipped
@@ -96,14 +96,14 @@ def _megabytes(n: int) -> str:
     return f"{n / 2**20:,.1f} MB" if n >= 2**20 else f"{n / 1024:,.1f} kB"
 
 
-def check_budget(spec: ScenarioSpec) -> None:
+def check_budget(spec: ScenarioFields) -> None:
     """Raise ``SpecError`` at the entry adding most to a total that is over its limit."""
     totals = (_cells(spec), _shapes(spec), _scattered(spec), _items(spec), _keys(spec))
     for total in (*totals, *_sensors(spec)):
         total.check()
 
 
-def world_bytes(spec: ScenarioSpec) -> int:
+def world_bytes(spec: ScenarioFields) -> int:
     """An estimate from above of the memory one world of ``spec`` takes once reset in a
     batch: the world, its shapes and items, its sensors, and its slots' observations in
     the batch's arrays."""
@@ -116,17 +116,17 @@ def world_bytes(spec: ScenarioSpec) -> int:
     )
 
 
-def batch_bytes(spec: ScenarioSpec, worlds: int, processes: int = 0) -> int:
+def batch_bytes(spec: ScenarioFields, worlds: int, processes: int = 0) -> int:
     """An estimate of what ``worlds`` worlds of ``spec`` take, in ``processes`` shards."""
     return worlds * world_bytes(spec) + processes * PROCESS_BYTES
 
 
-def max_worlds(spec: ScenarioSpec, processes: int = 0) -> int:
+def max_worlds(spec: ScenarioFields, processes: int = 0) -> int:
     """The most worlds of ``spec`` a batch may hold (in ``processes`` shards)."""
     return max(0, (MAX_BATCH_BYTES - processes * PROCESS_BYTES) // world_bytes(spec))
 
 
-def check_batch(spec: ScenarioSpec, worlds: object, name: str = "num_worlds", processes=0):
+def check_batch(spec: ScenarioFields, worlds: object, name: str = "num_worlds", processes=0):
     """Raise ``ValueError`` naming ``name`` unless ``worlds`` is a positive integer and that
     many worlds of ``spec`` (in ``processes`` shards) fit the work budget; call it before
     allocating anything."""
@@ -148,7 +148,7 @@ def check_batch(spec: ScenarioSpec, worlds: object, name: str = "num_worlds", pr
     )
 
 
-def _sensors(spec: ScenarioSpec) -> tuple[_Total, _Total]:
+def _sensors(spec: ScenarioFields) -> tuple[_Total, _Total]:
     memory = _Total(
         "of sensor memory (observations, maps, scent grids, across agents)",
         MAX_SENSOR_BYTES,
@@ -162,13 +162,13 @@ def _sensors(spec: ScenarioSpec) -> tuple[_Total, _Total]:
     return memory, rays
 
 
-def maze_size(spec: ScenarioSpec, cell: float) -> tuple[int, int]:
+def maze_size(spec: ScenarioFields, cell: float) -> tuple[int, int]:
     """Columns and rows of a maze of ``cell``-sized cells over the arena."""
     width, height = spec.arena.size
     return max(1, round(width / cell)), max(1, round(height / cell))
 
 
-def _cells(spec: ScenarioSpec) -> _Total:
+def _cells(spec: ScenarioFields) -> _Total:
     total = _Total("maze and room-grid cells", MAX_GENERATOR_CELLS)
     for g, gen in enumerate(spec.layout.generators):
         if gen.generator == "maze":
@@ -179,7 +179,7 @@ def _cells(spec: ScenarioSpec) -> _Total:
     return total
 
 
-def _shapes(spec: ScenarioSpec) -> _Total:
+def _shapes(spec: ScenarioFields) -> _Total:
     """An upper bound on the solid shapes built (a gap splits a wall in two)."""
     total = _Total("solid shapes (walls, doors, obstacles, agents' parts)", MAX_SHAPES)
     total.add(("arena",), 4)
@@ -211,7 +211,7 @@ def _shapes(spec: ScenarioSpec) -> _Total:
     return total
 
 
-def _scattered(spec: ScenarioSpec) -> _Total:
+def _scattered(spec: ScenarioFields) -> _Total:
     total = _Total("obstacles scattered at random", MAX_SCATTERED)
     for g, gen in enumerate(spec.layout.generators):
         if gen.generator == "random_obstacles":
@@ -219,7 +219,7 @@ def _scattered(spec: ScenarioSpec) -> _Total:
     return total
 
 
-def _items(spec: ScenarioSpec) -> _Total:
+def _items(spec: ScenarioFields) -> _Total:
     total = _Total("items", MAX_ITEMS)
     for g, item in enumerate(spec.items):
         key = "positions" if item.positions is not None else "count"
@@ -227,7 +227,7 @@ def _items(spec: ScenarioSpec) -> _Total:
     return total
 
 
-def _keys(spec: ScenarioSpec) -> _Total:
+def _keys(spec: ScenarioFields) -> _Total:
     total = _Total("locked doors and keys", MAX_KEYS)
     for path, door in spec.all_doors():
         if door.state == "locked":

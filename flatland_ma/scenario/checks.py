@@ -7,14 +7,14 @@ from typing import TYPE_CHECKING
 
 from flatland_ma.scenario.errors import KeyPath, SpecError
 
-if TYPE_CHECKING:  # the schema imports these checks
-    from flatland_ma.scenario.schema import ScenarioSpec
+if TYPE_CHECKING:
+    from flatland_ma.scenario.spec_scenario import ScenarioFields
 
 RESERVED_NAMES = ("score", "keys", "deliveries")
 """Keys of ``infos[agent]`` that item groups may not take."""
 
 
-def check_teams(spec: ScenarioSpec) -> None:
+def check_teams(spec: ScenarioFields) -> None:
     if spec.channel is not None and spec.channel.team and not spec.teams:
         raise SpecError(("channel", "team"), "a channel for teammates only needs 'teams'")
     if not spec.teams:
@@ -34,7 +34,7 @@ def check_teams(spec: ScenarioSpec) -> None:
             raise SpecError(("zones", i, "team"), f"no team {zone.team!r}; teams: {names}")
 
 
-def check_names(spec: ScenarioSpec) -> None:
+def check_names(spec: ScenarioFields) -> None:
     groups = [item.name for item in spec.items]
     for i, name in enumerate(groups):
         if name in groups[:i]:
@@ -86,7 +86,7 @@ def check_names(spec: ScenarioSpec) -> None:
                     )
 
 
-def wall_thicknesses(spec: ScenarioSpec) -> list[tuple[KeyPath, float]]:
+def wall_thicknesses(spec: ScenarioFields) -> list[tuple[KeyPath, float]]:
     """Every wall thickness a scenario sets, with its key path (the arena's first)."""
     walls: list[tuple[KeyPath, float]] = [
         (("arena", "wall", "thickness"), spec.arena.wall.thickness)

@@ -2,7 +2,7 @@
 generator's ``generator``, a part's ``type``), kept in registries that grow at run time.
 
 The shipped specs register themselves where they are defined; a user's own join with
-``flatland_ma.register`` or an entry point (``flatland_ma.registry``). A field typed
+``flatland_ma.register`` or an entry point (``flatland_ma.kinds.entry_points``). A field typed
 ``SENSORS.field`` takes a mapping, looks its tag up in the registry and validates the
 mapping with that spec; pydantic's discriminated unions are fixed when the models are
 made, a registry is not. The errors of the spec keep their key paths (``Nested``, which
@@ -19,7 +19,11 @@ from typing import Any
 from pydantic import BaseModel, GetCoreSchemaHandler, GetJsonSchemaHandler, ValidationError
 from pydantic_core import ErrorDetails, core_schema
 
-from flatland_ma.registry import extension_failures, how_kinds_are_added, load_extensions
+from flatland_ma.kinds.entry_points import (
+    extension_failures,
+    how_kinds_are_added,
+    load_extensions,
+)
 
 
 class Nested(ValueError):

@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING, Any
 
 from flatland_ma.scenario.errors import KeyPath
 
-if TYPE_CHECKING:  # the schema imports the budget, which imports this
-    from flatland_ma.scenario.schema import ScenarioSpec
+if TYPE_CHECKING:
     from flatland_ma.scenario.spec_agent import AgentSpec
+    from flatland_ma.scenario.spec_scenario import ScenarioFields
 
 FLOAT_BYTES = 4
 """Every sensor's observation is float32."""
@@ -136,7 +136,7 @@ class Written:
     memory: int
 
 
-def sensor_sizes(spec: ScenarioSpec) -> list[Written]:
+def sensor_sizes(spec: ScenarioFields) -> list[Written]:
     """Every sensor written in ``spec``, in agent-kind order; the channel's ``messages``
     (heard by every agent) as one more."""
     width, height = spec.arena.size
@@ -160,16 +160,16 @@ def sensor_sizes(spec: ScenarioSpec) -> list[Written]:
     return out
 
 
-def observation_bytes(spec: ScenarioSpec) -> int:
+def observation_bytes(spec: ScenarioFields) -> int:
     """Bytes of one step's observations of every agent of one world (float32 entries)."""
     return sum(w.size.entries * w.count for w in sensor_sizes(spec)) * FLOAT_BYTES
 
 
-def rays_per_step(spec: ScenarioSpec) -> int:
+def rays_per_step(spec: ScenarioFields) -> int:
     """Rays one world casts each step, every agent's sensors together."""
     return sum(w.size.rays * w.count for w in sensor_sizes(spec))
 
 
-def sensor_bytes(spec: ScenarioSpec) -> int:
+def sensor_bytes(spec: ScenarioFields) -> int:
     """Bytes every sensor of every agent of one world holds, together."""
     return sum(w.memory for w in sensor_sizes(spec))

@@ -37,7 +37,7 @@ class ContactRewardSpec(RuleBaseSpec):
 
 RULES = SpecKinds("rule", "rule", RuleBaseSpec)
 """Every rule's spec, by its ``rule``: the shipped ones, and those registered with
-``flatland_ma.register`` or an entry point (``flatland_ma.extensions``)."""
+``flatland_ma.register`` or an entry point (``flatland_ma.scenario.extensions``)."""
 RULES.add(StepRewardSpec)
 RULES.add(ContactRewardSpec)
 

@@ -233,7 +233,7 @@ class SmellSpec(SensorBaseSpec):
 
 SENSORS = SpecKinds("sensor", "type", SensorBaseSpec)
 """Every sensor's spec, by its ``type``: the shipped ones, and those registered with
-``flatland_ma.register`` or an entry point (``flatland_ma.extensions``)."""
+``flatland_ma.register`` or an entry point (``flatland_ma.scenario.extensions``)."""
 for _spec in (CameraSpec, LidarSpec, ProprioceptionSpec, TopdownSpec, TouchSpec, SmellSpec):
     SENSORS.add(_spec)
 

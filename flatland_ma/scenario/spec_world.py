@@ -7,9 +7,9 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import Field, model_validator
 
-from flatland_ma.scenario.budget import MAX_GROUPS
 from flatland_ma.scenario.kinds import SpecKinds
 from flatland_ma.scenario.types import (
+    MAX_GROUPS,
     MIN_LENGTH,
     Color,
     Distance,
@@ -299,7 +299,7 @@ class RandomObstaclesSpec(GeneratorBaseSpec):
 
 GENERATORS = SpecKinds("generator", "generator", GeneratorBaseSpec)
 """Every generator's spec, by its ``generator``: the shipped ones, and those registered
-with ``flatland_ma.register`` or an entry point (``flatland_ma.extensions``)."""
+with ``flatland_ma.register`` or an entry point (``flatland_ma.scenario.extensions``)."""
 for _spec in (GridRoomsSpec, MazeSpec, RandomObstaclesSpec):
     GENERATORS.add(_spec)
 

@@ -19,6 +19,11 @@ from pydantic import (
 from flatland_ma.scenario.colors import COLOR_JSON_SCHEMA, color_text, parse_color
 from flatland_ma.scenario.errors import Marks
 
+MAX_GROUPS = 64
+"""Item groups, zones, teams, rules and layout generators, each (the shipped scenarios
+have at most 4 of any): several checks and every step go over them one by one (the work
+budget, ``flatland_ma.scenario.budget``, counts the rest)."""
+
 MAX_ARENA_SIDE = 10_000.0
 """The longest side an arena may have, in world units (the largest shipped one is 800):
 it bounds every coordinate, and so the memory of the grids laid over the arena."""

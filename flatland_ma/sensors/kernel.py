@@ -38,7 +38,7 @@ and loops (numba issue #2350), and which made the kernel 2-3 times slower. An ar
 allocated in the kernel would fail to compile.
 
 Every change for speed keeps the results bit for bit: each ray tests the same shapes in
-the same order with the same arithmetic, less those it cannot hit (tests/test_kernel.py
+the same order with the same arithmetic, less those it cannot hit (tests/sensors/test_kernel.py
 holds it to a frozen copy of the kernel before them, tests/kernel_reference.py). The
 grid walk is most of a ray's time now: benchmarks/rays.py measures the rays per second.
 """

@@ -10,7 +10,7 @@ A new sensor is one subclass, named by its ``kind`` in the class statement (the 
 its scenario spec carries), plus that spec (a subclass of
 ``scenario.spec_sensors.SensorBaseSpec`` with ``type: Literal["compass"]``), registered
 with ``flatland_ma.register(CompassSpec, Compass)`` (or an entry point; see
-``flatland_ma.extensions``); the builder finds it in ``SENSOR_KINDS`` and makes it with
+``flatland_ma.scenario.extensions``); the builder finds it in ``SENSOR_KINDS`` and makes it with
 ``from_spec``, which passes the spec's keys (but ``type`` and ``noise``; ``name`` is the
 observation's key) as keyword arguments:
 
@@ -61,7 +61,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from flatland_ma.registry import Kinded, Kinds
+from flatland_ma.kinds.registry import Kinded, Kinds
 from flatland_ma.sensors.noise import Noise
 
 SENSOR_KINDS = Kinds("flatland_ma.sensors", "sensor")

@@ -14,7 +14,7 @@ from flatland_ma.sensors import topdown_kernel
 from flatland_ma.sensors.geometry import Geometry
 from flatland_ma.sensors.semantic import SEMANTIC_KINDS
 from flatland_ma.sensors.sensor import Sensor
-from flatland_ma.sensors.suite import compiled_kernel
+from flatland_ma.sensors.sensor_suite import compiled_kernel
 from flatland_ma.sensors.topdown_kernel import Outline, View
 
 CHANNELS = ("rgb", "semantic", "visibility")

@@ -32,9 +32,9 @@ import anyio
 from starlette.requests import ClientDisconnect, Request
 from starlette.responses import JSONResponse, Response
 
-from flatland_ma.options import MAX_SEED
 from flatland_ma.scenario.errors import ScenarioError
 from flatland_ma.scenario.json_schema import file_schema
+from flatland_ma.studio.config import MAX_SEED
 from flatland_ma.studio.episodes import agent_policies, policy_names
 from flatland_ma.studio.folders import FolderError
 from flatland_ma.studio.gifs import Gifs

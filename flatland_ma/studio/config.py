@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+MAX_SEED = 2**32 - 1
+"""Seeds run from 0 to this (NumPy's legacy range; every generator here accepts it): the
+studio's requests and the command line's options (``flatland_ma.cli.options``) alike."""
 LOOPBACK = ("127.0.0.1", "localhost", "::1")
 """Addresses reachable from this machine only: bound to one, the studio asks no token."""
 

@@ -18,8 +18,8 @@ from PIL import Image
 
 from flatland_ma.build.feasibility import check_scenario
 from flatland_ma.envs.parallel import FlatlandParallelEnv
-from flatland_ma.registration import gym_id
-from flatland_ma.render.topdown import Renderer
+from flatland_ma.envs.registration import gym_id
+from flatland_ma.render.renderer import Renderer
 from flatland_ma.scenario.errors import Marks, Problem, ScenarioError, format_path, locate
 from flatland_ma.scenario.loader import list_scenarios, merge, read_raw, validate
 from flatland_ma.scenario.schema import ScenarioSpec

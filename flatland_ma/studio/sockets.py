@@ -31,7 +31,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from flatland_ma.play.keys import SCRIPT_KEYS, Keys
 from flatland_ma.scenario.errors import ScenarioError
-from flatland_ma.studio import messages
+from flatland_ma.studio import socket_messages as messages
 from flatland_ma.studio.episodes import Play, PolicyRefused, Watch, resolve_policy
 from flatland_ma.studio.folders import FolderError
 from flatland_ma.studio.scenarios import encode, problem_json

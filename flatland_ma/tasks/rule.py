@@ -32,7 +32,7 @@ import numpy as np
 
 from flatland_ma.agents.body import AgentBody
 from flatland_ma.agents.grasp import Hands
-from flatland_ma.registry import Kinded, Kinds
+from flatland_ma.kinds.registry import Kinded, Kinds
 from flatland_ma.world.contacts import ContactLog
 from flatland_ma.world.entities import ItemGroup, Rect
 from flatland_ma.world.placement import Placer

@@ -1,0 +1,160 @@
+"""The learning options of ``baselines.ppo``: presets, the team's reward, potential-based
+shaping, and the CPU time a run's summary records."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import flatland_ma
+from baselines.ppo import Args
+from baselines.ppo_presets import PRESETS, with_preset
+from baselines.shaping import DeliveryPotential, Shaping, learning_reward, team_rewards
+from flatland_ma.envs.vector import BatchedParallelEnv
+from tests.module_runner import run_module
+
+
+def test_a_preset_fills_only_the_options_left_at_their_defaults():
+    chosen = with_preset(Args(preset="fruits_poisons", seed=3, ent_coef=0.05))
+    assert chosen.scenario == "fruits_poisons" and chosen.seed == 3
+    assert chosen.ent_coef == 0.05  # set by hand: kept
+    assert chosen.num_envs == PRESETS["fruits_poisons"]["num_envs"] != Args().num_envs
+    assert with_preset(Args()) == Args()
+    with pytest.raises(ValueError, match="no preset 'nope'"):
+        with_preset(Args(preset="nope"))
+
+
+def test_the_team_reward_gives_every_agent_its_worlds_sum():
+    reward = np.array([1.0, 0.0, -2.0, 5.0, 0.5, 0.5])
+    assert team_rewards(reward, 2).tolist() == [1.0, 1.0, 3.0, 3.0, 1.0, 1.0]
+    assert team_rewards(reward, 1).tolist() == reward.tolist()
+
+
+def _play(env, steps, seed):
+    """``steps`` steps of uniformly random actions, drawn from ``seed``."""
+    env.single_action_space.seed(seed)
+    for _ in range(steps):
+        actions = np.stack([env.single_action_space.sample() for _ in range(env.num_slots)])
+        yield env.step(actions)
+
+
+def test_delivery_shaping_is_a_difference_of_potentials_that_is_not_in_the_reward():
+    env = BatchedParallelEnv("coop_carry", num_worlds=2, pad=True, copy=True)
+    env.reset(seed=0)
+    potential = DeliveryPotential(env)
+    phi = [potential(env.state())]
+    shaping = Shaping(potential, coef=2.0, gamma=1.0)
+    shaping.start(env)
+    terms, rewards = [], []
+    for _, reward, terminated, _, _ in _play(env, 40, 0):
+        terms.append(shaping(env, terminated))
+        phi.append(potential(env.state()))
+        rewards.append(reward)
+    assert not np.any(np.concatenate(rewards))  # random play delivers nothing
+    # With gamma 1 the terms telescope: their sum is the change of the potential.
+    assert np.allclose(np.sum(terms, axis=0), 2.0 * (phi[-1] - phi[0]))
+    assert np.any(np.sum(terms, axis=0) != 0.0)  # the agents moved: shaping paid something
+    env.close()
+
+
+def test_the_potential_is_highest_with_the_crate_in_the_zone_and_the_agent_beside_it():
+    env = BatchedParallelEnv("coop_carry", num_worlds=1, pad=True)
+    env.reset(seed=0)
+    potential = DeliveryPotential(env)
+    state = env.state().copy()
+    start = potential(state)
+    ox, oy = potential.object
+    x0, y0, x1, y1 = potential.rect
+    state[0, ox], state[0, oy] = (x0 + x1) / 2 / 400, (y0 + y1) / 2 / 300
+    for ix, iy in potential.agents:
+        state[0, ix], state[0, iy] = state[0, ox], state[0, oy]
+    assert np.allclose(potential(state), 0.0)
+    assert np.all(start < 0.0)
+    env.close()
+    with pytest.raises(ValueError, match="delivers nothing"):
+        DeliveryPotential(BatchedParallelEnv("fruits_poisons", num_worlds=1))
+
+
+def test_the_learning_reward_adds_team_and_shaping_terms_and_is_none_without_them():
+    env = BatchedParallelEnv("coop_carry", num_worlds=2, pad=True, copy=True)
+    env.reset(seed=1)
+    assert learning_reward(Args(), env) is None
+    learn_from = learning_reward(Args(team_reward=True, shaping=1.0, gamma=0.9), env)
+    check = Shaping(DeliveryPotential(env), 1.0, 0.9)
+    check.start(env)
+    assert learn_from is not None
+    for _, reward, terminated, _, _ in _play(env, 10, 1):
+        reward = reward + np.array([1.0, 0.0, 0.0, 3.0])  # as if agents had scored
+        expected = team_rewards(reward, 2) + check(env, terminated)
+        assert np.allclose(learn_from(reward, terminated), expected)
+    with pytest.raises(ValueError, match="shaping must be"):
+        learning_reward(Args(shaping=-1.0), env)
+    env.close()
+
+
+def test_a_run_records_its_cpu_time_and_the_load_and_logs_the_scenarios_return(tmp_path):
+    csv = tmp_path / "seed_0.csv"
+    result = run_module(
+        *[
+            "baselines.ppo",
+            "--scenario",
+            "fruits_poisons",
+            "--num-envs",
+            "1",
+            "--num-steps",
+            "125",
+            "--total-timesteps",
+            "500",
+            "--checkpoint-every",
+            "0",
+            "--no-tensorboard",
+            "--csv",
+            str(csv),
+        ]
+    )
+    assert result.returncode == 0, result.stderr[-3000:]
+    summary = json.loads(csv.with_suffix(".json").read_text())
+    assert summary["cpu_seconds"] > 0
+    assert len(summary["load_average_start"]) == len(summary["load_average_end"]) == 3
+    rows = csv.read_text().splitlines()
+    assert len(rows) == 2  # one episode of 500 steps
+
+
+def test_a_curriculum_trains_on_each_stage_in_turn_for_its_steps(tmp_path):
+    stream = tmp_path / "short_first.yaml"
+    stream.write_text(
+        "tasks:\n"
+        "  - {name: short, scenario: fruits_poisons, overrides: {episode: {max_steps: 50}},"
+        " steps: 200}\n"
+        "  - {name: long, scenario: fruits_poisons, overrides: {episode: {max_steps: 100}},"
+        " steps: 200}\n"
+    )
+    csv = tmp_path / "seed_0.csv"
+    run = ["--scenario", "fruits_poisons"]
+    run += ["--curriculum", str(stream), "--num-envs", "1", "--num-steps", "50"]
+    run += ["--checkpoint-every", "0", "--no-tensorboard", "--csv", str(csv)]
+    result = run_module("baselines.ppo", *run)
+    assert result.returncode == 0, result.stderr[-3000:]
+    steps = [int(row.split(",")[2]) for row in csv.read_text().splitlines()[1:]]
+    summary = json.loads(csv.with_suffix(".json").read_text())
+    short, long = summary["curriculum"]
+    assert (short["name"], short["began"], long["name"]) == ("short", 0, "long")
+    # The stage changes at the end of the first rollout (50 steps) after its 200 steps.
+    assert 200 <= long["began"] < 250
+    # Four episodes of 50 steps, then one of 100: the second stage's worlds.
+    assert steps == [50, 100, 150, 200, long["began"] + 100]
+
+
+@pytest.mark.parametrize(
+    "path", sorted((Path(__file__).parents[2] / "baselines" / "curricula").glob("*.yaml"))
+)
+def test_the_shipped_curricula_load_and_end_on_their_task(path):
+    from baselines.curriculum import curriculum_stages
+
+    stages = curriculum_stages(path)
+    assert len(stages) >= 2 and all(stage.steps > 0 for stage in stages)
+    assert stages[-1].spec == flatland_ma.load_scenario(stages[-1].name)  # the task itself
+    assert all(stage.spec != stages[-1].spec for stage in stages[:-1])  # easier first
