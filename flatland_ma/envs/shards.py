@@ -84,7 +84,7 @@ class ShardedParallelEnv:
         self.autoreset_mode = probe.autoreset_mode
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.render_mode = probe.render_mode
-        self._flat = probe._flat
+        self._flat = probe.flat
         shards = min(num_worlds, shards if shards is not None else os.cpu_count() or 1)
         check_batch(probe.spec, num_worlds, _counted_as, processes=shards)
         self.spec = probe.spec
@@ -283,7 +283,7 @@ class ShardedParallelEnv:
         for slot in np.flatnonzero(self._acting):
             agent = self._checker.possible_agents[slot % m]
             try:
-                checked[slot] = self._checker._actuators[slot % m].check(agent, actions[slot])
+                checked[slot] = self._checker.actuators[slot % m].check(agent, actions[slot])
             except ValueError as err:
                 raise ValueError(f"world {slot // m}, slot {slot}: {err}") from None
         return checked
