@@ -233,19 +233,25 @@ class WorldLoop:
 
     def act(self, checked) -> None:
         """Command the live agents (``checked``: their checked actions, in agent order)."""
-        bodies, actuators = self.running.bodies, self.actuators
+        episode, actuators = self.running, self.actuators
+        bodies = episode.bodies
         for i, action in zip(self.live, checked):
             actuators[i].apply(bodies[i], action)
-        self.drove(checked)
+        if episode.world.channel is not None:
+            self._say(checked)
+        self._log.append(checked)
 
     def drove(self, checked) -> None:
         """What ``act`` does but for commanding the bodies: the caller drove them."""
-        channel = self.running.world.channel
-        if channel is not None:
-            actuators = self.actuators
-            for i, action in zip(self.live, checked):
-                channel.say(i, actuators[i].said(action))
+        if self.running.world.channel is not None:
+            self._say(checked)
         self._log.append(checked)
+
+    def _say(self, checked) -> None:
+        channel, actuators = self.running.world.channel, self.actuators
+        assert channel is not None
+        for i, action in zip(self.live, checked):
+            channel.say(i, actuators[i].said(action))
 
     def simulate(self) -> tuple[list[float], list[bool]]:
         """The physics and the task's rules of one step: everyone's rewards and
