@@ -109,7 +109,9 @@ def measure(
         step = (time.thread_time() - start) / (steps * worlds)
         if any(w.num_steps != steps + 1 for w in env.worlds):
             raise AssertionError("a world was reset during the timed steps")
-        rays = _per_world(lambda: env._rays.observe(np.arange(worlds, dtype=np.int64)), worlds)
+        rays = _per_world(
+            lambda: env.core.kernel.observe(np.arange(worlds, dtype=np.int64)), worlds
+        )
         own = [w.running.world for w in env.worlds]
         physics = _per_world(lambda: [world.step() for world in own], worlds)
         reset = _resets(env, max(worlds, RESETS))
@@ -155,7 +157,7 @@ def _resets(env, n: int) -> float:
     worlds = env.worlds
     start = time.thread_time()
     for k in range(n):
-        env._restart(k % len(worlds), worlds[k % len(worlds)], None)
+        env.core.restart(k % len(worlds))
     return (time.thread_time() - start) / n
 
 

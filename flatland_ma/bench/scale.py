@@ -90,7 +90,7 @@ def _kernel_threads(env) -> str:
 
     from flatland_ma.sensors.threads import Chooser
 
-    function = env._rays._function
+    function = env.core.kernel.function
     using = "all" if isinstance(function, Chooser) and function.parallel else "1"
     return f"1 x {numba.get_num_threads()} (using {using})"
 

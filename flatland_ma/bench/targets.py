@@ -127,7 +127,7 @@ def bench_rays(worlds: int, seconds: float) -> RayRate:
         while calls < 3 or wall < seconds:
             env.step(env.action_space.sample())
             c0, w0 = time.thread_time(), time.perf_counter()
-            env._rays.observe(which)
+            env.core.kernel.observe(which)
             cpu += time.thread_time() - c0
             wall += time.perf_counter() - w0
             calls += 1

@@ -12,13 +12,13 @@ import numpy as np
 
 from flatland_ma.agents.actuators import Actuator
 from flatland_ma.agents.motors import Motors
-from flatland_ma.envs.parallel import FlatlandParallelEnv
+from flatland_ma.envs.world_loop import WorldLoop
 from flatland_ma.sensors.camera import Camera
 from flatland_ma.sensors.sensor_suite import Sensors
 
 
 def checked_at_once(
-    actions, actuator: Actuator, worlds: list[FlatlandParallelEnv], ended: list[bool], m: int
+    actions, actuator: Actuator, worlds: list[WorldLoop], ended: list[bool], m: int
 ) -> list | None:
     """Each live agent's action, world by world (none for worlds ``ended``), as
     ``Actuator.check`` gives it, when ``actions`` is one array that lies in the space
@@ -46,22 +46,20 @@ def checked_at_once(
         ()
         if ended[w]
         else tuple(values[w * m : (w + 1) * m])
-        if len(env._live) == m
-        else tuple([values[w * m + i] for i in env._live])
+        if len(env.live) == m
+        else tuple([values[w * m + i] for i in env.live])
         for w, env in enumerate(worlds)
     ]
 
 
-def checked_by_slot(
-    actions, worlds: list[FlatlandParallelEnv], ended: list[bool], m: int
-) -> list[list]:
+def checked_by_slot(actions, worlds: list[WorldLoop], ended: list[bool], m: int) -> list[list]:
     """What ``checked_at_once`` gives, slot by slot through each world's
     ``check_action``; a bad action raises ``ValueError`` naming its world and slot."""
     checked: list[list] = []
     for w, env in enumerate(worlds):
         own = []
         if not ended[w]:
-            for i in env._live:
+            for i in env.live:
                 agent = env.possible_agents[i]
                 try:
                     own.append(env.check_action(agent, actions[w * m + i]))
@@ -74,7 +72,7 @@ def checked_by_slot(
 def drive(
     motors: Motors, actuator: Actuator, stepped: list, checked: list[list], whole=None
 ) -> None:
-    """Command the body of every live agent of the worlds ``stepped`` ((world, env)
+    """Command the body of every live agent of the worlds ``stepped`` ((world, loop)
     pairs) in one call (``motors.Motors``: the numbers ``Actuator.apply`` would give).
     ``whole``: the batch's array of actions, checked at once, when every slot acts (every
     world stepped, every agent live): then the commands come from it in one go, else slot
@@ -86,7 +84,7 @@ def drive(
     slots, bodies, actions = [], [], []
     for w, env in stepped:
         own = env.running.bodies
-        for i, action in zip(env._live, checked[w]):
+        for i, action in zip(env.live, checked[w]):
             slots.append(w * m + i)
             bodies.append(own[i])
             actions.append(action)

@@ -54,7 +54,7 @@ class FlatlandGymEnv(gymnasium.Env):
         self.observation_space = self.parallel_env.observation_space(self.agent)
         self.action_space = self.parallel_env.action_space(self.agent)
         self.render_mode = render_mode
-        self._actuator = self.parallel_env._actuators[0]
+        self._actuator = self.parallel_env.actuators[0]
 
     def action_names(self) -> tuple[str, ...]:
         """What each discrete action or each continuous entry means, in order."""
@@ -71,7 +71,7 @@ class FlatlandGymEnv(gymnasium.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         observations, infos = self.parallel_env.reset(seed=seed, options=options)
         self._np_random = self.parallel_env.np_random
-        self._np_random_seed = self.parallel_env._np_random_seed
+        self._np_random_seed = self.parallel_env.np_random_seed
         return observations[self.agent], infos[self.agent]
 
     def step(self, action):
@@ -81,10 +81,11 @@ class FlatlandGymEnv(gymnasium.Env):
         checked = self._actuator.check(self.agent, action)
         par.enter()
         try:
-            _, rewards, terminated, truncated = par._advance([checked])
+            par.act((checked,))
+            _, rewards, terminated, truncated = par.advance()
             episode = par.running
             return (
-                par._observe(0),
+                par.observe(0),
                 rewards[0],
                 terminated[0],
                 truncated,
@@ -102,8 +103,8 @@ class FlatlandGymEnv(gymnasium.Env):
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
-        self._actuator = self.parallel_env._actuators[0]
-        if self.parallel_env._np_random is not None:
+        self._actuator = self.parallel_env.actuators[0]
+        if self.parallel_env.seeded:
             self._np_random = self.parallel_env.np_random
 
 

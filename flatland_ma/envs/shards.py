@@ -81,43 +81,12 @@ class ShardedParallelEnv:
         check_vector_render_mode(overrides.get("render_mode"))
         # One world here, to check the arguments, learn the spaces and lay out the arrays.
         probe = BatchedParallelEnv(scenario, num_worlds=1, max_cycles=max_cycles, **overrides)
-        self.autoreset_mode = probe.autoreset_mode
-        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
-        self.render_mode = probe.render_mode
-        self._flat = probe._flat
         shards = min(num_worlds, shards if shards is not None else os.cpu_count() or 1)
         check_batch(probe.spec, num_worlds, _counted_as, processes=shards)
-        self.spec = probe.spec
         self.num_worlds, self.num_shards, self.copy = num_worlds, shards, copy
-        self.possible_agents = probe.possible_agents
-        self.agents_per_world = probe.agents_per_world
-        self.num_slots = num_worlds * self.agents_per_world
-        self.single_observation_space = probe.single_observation_space
-        self.single_action_space = probe.single_action_space
-        self.padding = probe.padding
-        """How observations are padded to one space (``pad=True``), or None."""
-        self.single_state_space = probe.single_state_space
-        self.state_space = gymnasium.vector.utils.batch_space(probe.single_state_space, num_worlds)
-        self.observation_space = gymnasium.vector.utils.batch_space(
-            self.single_observation_space, self.num_slots
-        )
-        self.action_space = gymnasium.vector.utils.batch_space(
-            self.single_action_space, self.num_slots
-        )
-        self._checker = probe.worlds[0]
-        _, probe_infos = probe.reset(seed=0)
-        self._counter_types = {k: v[:0] for k, v in probe_infos.items() if k != "active"}
-        self._layout = shared_layout(
-            self.num_slots, self.single_observation_space, self.single_action_space, probe_infos
-        )
-        self._objects = [k for k, v in probe_infos.items() if object_info(v)]
+        self._learn(probe)
         processes = mp.get_context(context)
-        self._buffers = {
-            name: processes.RawArray("b", max(1, int(np.prod(shape)) * dtype.itemsize))
-            for name, (shape, dtype) in self._layout.items()
-        }
-        self._arrays = views(self._buffers, self._layout)
-        self._object_infos = {k: np.empty(self.num_slots, object) for k in self._objects}
+        self._share(processes, probe)
         bounds = np.linspace(0, num_worlds, shards + 1).round().astype(int)
         self._worlds = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
         m = self.agents_per_world
@@ -126,32 +95,73 @@ class ShardedParallelEnv:
         self._finals: dict[int, tuple] = {}
         self._ready = False
         try:
-            for k, (first, last) in enumerate(self._worlds):
-                ours, theirs = processes.Pipe()
-                process = processes.Process(  # type: ignore[attr-defined]
-                    target=serve,
-                    args=(
-                        theirs,
-                        scenario,
-                        last - first,
-                        max_cycles,
-                        overrides,
-                        self._slots[k],
-                        self._buffers,
-                        self._layout,
-                    ),
-                    name=f"flatland_ma-shard-{k}",
-                    daemon=True,
-                )
-                process.start()
-                theirs.close()
-                self._pipes.append(ours)
-                self._processes.append(process)
+            for k in range(shards):
+                self._start(k, processes, scenario, max_cycles, overrides)
             for k in range(shards):
                 self._answer(k, STARTUP_SECONDS)
         except BaseException:
             self.close()
             raise
+
+    def _learn(self, probe: BatchedParallelEnv) -> None:
+        """The spaces, modes and layout of the worlds, as a batch of one world has them."""
+        self.autoreset_mode = probe.autoreset_mode
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        self.render_mode = probe.render_mode
+        self._flat = probe.flat
+        self.spec = probe.spec
+        self.possible_agents = probe.possible_agents
+        self.agents_per_world = probe.agents_per_world
+        self.num_slots = self.num_worlds * self.agents_per_world
+        self.single_observation_space = probe.single_observation_space
+        self.single_action_space = probe.single_action_space
+        self.padding = probe.padding
+        """How observations are padded to one space (``pad=True``), or None."""
+        self.single_state_space = probe.single_state_space
+        batch_space = gymnasium.vector.utils.batch_space
+        self.state_space = batch_space(probe.single_state_space, self.num_worlds)
+        self.observation_space = batch_space(self.single_observation_space, self.num_slots)
+        self.action_space = batch_space(self.single_action_space, self.num_slots)
+        self._checker = probe.worlds[0]
+
+    def _share(self, processes, probe: BatchedParallelEnv) -> None:
+        """The arrays shared with the shards, laid out for the counters the probe gives."""
+        _, probe_infos = probe.reset(seed=0)
+        self._counter_types = {k: v[:0] for k, v in probe_infos.items() if k != "active"}
+        self._layout = shared_layout(
+            self.num_slots, self.single_observation_space, self.single_action_space, probe_infos
+        )
+        self._objects = [k for k, v in probe_infos.items() if object_info(v)]
+        self._buffers = {
+            name: processes.RawArray("b", max(1, int(np.prod(shape)) * dtype.itemsize))
+            for name, (shape, dtype) in self._layout.items()
+        }
+        self._arrays = views(self._buffers, self._layout)
+        self._object_infos = {k: np.empty(self.num_slots, object) for k in self._objects}
+
+    def _start(self, k: int, processes, scenario, max_cycles, overrides) -> None:
+        """Start shard ``k``'s process over its worlds."""
+        first, last = self._worlds[k]
+        ours, theirs = processes.Pipe()
+        process = processes.Process(  # type: ignore[attr-defined]
+            target=serve,
+            args=(
+                theirs,
+                scenario,
+                last - first,
+                max_cycles,
+                overrides,
+                self._slots[k],
+                self._buffers,
+                self._layout,
+            ),
+            name=f"flatland_ma-shard-{k}",
+            daemon=True,
+        )
+        process.start()
+        theirs.close()
+        self._pipes.append(ours)
+        self._processes.append(process)
 
     # -- the loop -----------------------------------------------------------------------
 
@@ -283,7 +293,7 @@ class ShardedParallelEnv:
         for slot in np.flatnonzero(self._acting):
             agent = self._checker.possible_agents[slot % m]
             try:
-                checked[slot] = self._checker._actuators[slot % m].check(agent, actions[slot])
+                checked[slot] = self._checker.actuators[slot % m].check(agent, actions[slot])
             except ValueError as err:
                 raise ValueError(f"world {slot // m}, slot {slot}: {err}") from None
         return checked

@@ -13,8 +13,8 @@ import numpy as np
 from flatland_ma.envs.buffers import copied, counter_array, put, stacked
 from flatland_ma.envs.flatten import FlatLayout
 from flatland_ma.envs.padding import Padding
-from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.envs.resets import flatten_into, slot_of
+from flatland_ma.envs.world_loop import WorldLoop
 
 
 @dataclass
@@ -32,7 +32,7 @@ class SlotSpaces:
     """How a slot's observation lies in its flat vector, with ``flatten``."""
 
 
-def slot_spaces(first: FlatlandParallelEnv, pad: bool, flatten: bool) -> SlotSpaces:
+def slot_spaces(first: WorldLoop, pad: bool, flatten: bool) -> SlotSpaces:
     """The spaces of the slots of ``first``'s worlds; a ``ValueError`` naming the agents
     when they do not share one (observations that differ are padded with ``pad``)."""
     agents = first.possible_agents

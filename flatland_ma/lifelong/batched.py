@@ -258,10 +258,11 @@ class StreamBatchedEnv:
         """The learner's actions, checked before the partners act: an error names the
         world, the learner's slot, the agent, the value and the space; nothing changes."""
         m = env.agents_per_world
+        acting = env.acting()
         for k, slot in enumerate(slots):
             w, j = divmod(int(slot), m)
             world = env.worlds[w]
-            if env._ended[w] or j not in world._live:
+            if not acting[slot]:
                 continue  # its action is not used
             try:
                 world.check_action(world.possible_agents[j], actions[k])

@@ -31,7 +31,7 @@ episode (its world, its navigation grid) overrides ``attach``.
 
 ``read(results, k)`` is called at each reset and step, after the physics, the rules and
 the one kernel call; ``results`` is the episode's sensor suite
-(``sensors.suite.Sensors``) and ``k`` this sensor's index in it. It returns a fresh array
+(``sensors.sensor_suite.Sensors``) and ``k`` this sensor's index in it. It returns a fresh array
 of the space's shape and dtype (the suite adds the noise and clips into the space). What
 it may read:
 

@@ -238,6 +238,12 @@ class WorldsKernel:
                 self._function = serial
         self._function(self.worlds, which)
 
+    @property
+    def function(self) -> Callable | None:
+        """The compiled function ``observe`` calls (a ``threads.Chooser`` when
+        ``parallel``); None before the first call."""
+        return self._function
+
 
 def _compiled(function: Callable, signature: tuple) -> Callable:
     key = (function, signature)

@@ -1,4 +1,4 @@
-"""An episode's WebSocket: messages in (``studio.messages``), frames and state out.
+"""An episode's WebSocket: messages in (``studio.socket_messages``), frames and state out.
 
 Each connection holds at most one episode, and the studio at most ``limits.episodes`` at
 once: a connection takes a slot with its first episode (one more is told so and closed,

@@ -19,12 +19,12 @@ from flatland_ma.bench.scale import ScaleRun, as_json, format_table
 def test_a_row_times_its_parts_on_the_envs_worlds(monkeypatch):
     # Count what each part did: the kernel's calls over every world, World.step's calls,
     # and the resets.
-    from flatland_ma.envs.vector import BatchedParallelEnv
+    from flatland_ma.envs.worlds import Worlds
     from flatland_ma.sensors.sensor_suite import WorldsKernel
     from flatland_ma.world.world import World
 
     kernel_calls, world_steps, restarts = [], Counter(), []
-    observe, step, restart = WorldsKernel.observe, World.step, BatchedParallelEnv._restart
+    observe, step, restart = WorldsKernel.observe, World.step, Worlds.restart
 
     def counted_observe(self, which):
         kernel_calls.append(len(which))
@@ -34,13 +34,13 @@ def test_a_row_times_its_parts_on_the_envs_worlds(monkeypatch):
         world_steps[id(self)] += 1
         return step(self)
 
-    def counted_restart(self, w, env, seed):
+    def counted_restart(self, w, seed=None):
         restarts.append(w)
-        return restart(self, w, env, seed)
+        return restart(self, w, seed)
 
     monkeypatch.setattr(WorldsKernel, "observe", counted_observe)
     monkeypatch.setattr(World, "step", counted_step)
-    monkeypatch.setattr(BatchedParallelEnv, "_restart", counted_restart)
+    monkeypatch.setattr(Worlds, "restart", counted_restart)
     monkeypatch.setattr(bench_breakdown, "RESETS", 5)
     row = measure("fruits_poisons_multi", 2, steps=4, max_cycles=50)
 

@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import data_equivalence
 
 import flatland_ma
-from flatland_ma.envs import vector
+from flatland_ma.envs import worlds
 from flatland_ma.envs.gym_vector import FlatlandVectorEnv
 from flatland_ma.envs.registration import gym_id
 from flatland_ma.envs.shards import ShardedParallelEnv
@@ -90,8 +90,8 @@ def test_the_stream_batched_env_says_what_a_batch_takes():
 def _no_world_built(monkeypatch):
     """Count the worlds a batch builds after its first."""
     built = []
-    same = vector._same
-    monkeypatch.setattr(vector, "_same", lambda first: built.append(1) or same(first))
+    same = worlds._like
+    monkeypatch.setattr(worlds, "_like", lambda first: built.append(1) or same(first))
     return built
 
 

@@ -93,4 +93,4 @@ def test_the_fields_of_pymunk_bodies_are_where_the_compiled_motors_look():
     assert Motors.available()
     batch = BatchedParallelEnv("fruits_poisons_multi", num_worlds=2)
     batch.reset(seed=0)
-    assert batch._motors is not None and batch._poses is not None and batch._whole_image
+    assert batch.core.motors is not None and batch.core.poses is not None and batch.core.whole_image

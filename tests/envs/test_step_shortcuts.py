@@ -127,7 +127,7 @@ def test_rewards_and_ends_written_at_once_are_what_separate_envs_give():
 
 
 def _grids(batch):
-    return {batch._rays.worlds[w][2].cell_full.ctypes.data for w in range(batch.num_worlds)}
+    return {batch.core.kernel.worlds[w][2].cell_full.ctypes.data for w in range(batch.num_worlds)}
 
 
 def test_fixed_layouts_share_the_kernels_grid_and_generated_ones_do_not():
@@ -139,7 +139,12 @@ def test_fixed_layouts_share_the_kernels_grid_and_generated_ones_do_not():
     assert len(_grids(drawn)) == 3
     for batch in (fixed, drawn):  # the eyes are alike in every world of both
         assert (
-            len({batch._rays.worlds[w][4].ray_dir.ctypes.data for w in range(batch.num_worlds)})
+            len(
+                {
+                    batch.core.kernel.worlds[w][4].ray_dir.ctypes.data
+                    for w in range(batch.num_worlds)
+                }
+            )
             == 1
         )
 

@@ -162,17 +162,17 @@ def test_each_episodes_score_is_appended_to_the_scores_file(tmp_path):
 def test_an_agent_whose_episode_ends_hands_the_keys_on(monkeypatch):
     env = flatland_ma.parallel_env("fruits_poisons_multi")
     session = Session(env, "fruits_poisons_multi", seed=0, others="idle")
-    original = env._advance
+    original = env.advance
 
-    def ending_agent_0(checked):
-        live, rewards, terminated, truncated = original(checked)
+    def ending_agent_0():
+        live, rewards, terminated, truncated = original()
         terminated[0] = env.num_steps >= 3
-        if terminated[0] and 0 in env._live:
-            env._live.remove(0)
+        if terminated[0] and 0 in env.live:
+            env.live.remove(0)
             env.agents.remove("agent_0")
         return live, rewards, terminated, truncated
 
-    monkeypatch.setattr(env, "_advance", ending_agent_0)
+    monkeypatch.setattr(env, "advance", ending_agent_0)
     for _ in range(3):
         session.advance(held("up"))
     assert "agent_0" not in env.agents and session.agent == "agent_1"

@@ -361,7 +361,7 @@ def test_the_sizes_counted_are_the_spaces_built(scenario):
         for agent in env.possible_agents
     )
     assert sizes.observation_bytes(env.spec) == 4 * entries
-    rays = sum(s.n_rays for agent in env._sensors for s in agent)
+    rays = sum(s.n_rays for agent in env.sensors for s in agent)
     assert sizes.rays_per_step(env.spec) == rays
 
 

@@ -27,7 +27,7 @@ def _readings(env, x=150.0, y=150.0, heading=0.0):
 def test_noise_is_off_unless_the_file_asks_for_it():
     for name in flatland_ma.list_scenarios():
         env = flatland_ma.parallel_env(name)
-        for agent, own in zip(env.spec.agent_specs, env._sensors):
+        for agent, own in zip(env.spec.agent_specs, env.sensors):
             for spec, sensor in zip(agent.sensor_specs, own):
                 assert (sensor.noise is None) == (spec.noise is None), (name, sensor.name)
 

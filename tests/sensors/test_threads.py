@@ -83,9 +83,9 @@ def test_switching_kernels_mid_run_changes_no_observation(scenario):
     switching = BatchedParallelEnv(scenario, num_worlds=4, parallel=True)
     a, _ = fixed.reset(seed=3)
     b, _ = switching.reset(seed=3)
-    rays = switching._rays
+    rays = switching.core.kernel
     rays.observe(np.arange(4))  # compile, then force a switch every few calls
-    function = rays._function
+    function = rays.function
     assert isinstance(function, Chooser)
     function.FIRST_PATIENCE = function.MAX_PATIENCE = 3
     function.patience = 3

@@ -96,7 +96,7 @@ def test_spaces_and_names_with_a_channel():
         "fruits_poisons_multi", agent={"actions": "continuous"}, channel=CHANNEL
     )
     assert continuous.action_space("agent_0").shape == (3 + 2,)
-    actuator = continuous._actuators[0]
+    actuator = continuous.actuators[0]
     # [-1, 1] cut into three equal bins.
     said = [
         actuator.said(np.array([0, 0, 0, x, y])) for x, y in ((-1, -0.34), (-0.32, 0.3), (0.34, 1))
