@@ -1,6 +1,6 @@
 """The paper's figure and a results table from the runs' CSVs.
 
-    python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons \\
+    python -m baselines.benchmark.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons \\
         runs/dfp/fruits_poisons --references 20 --out docs/images/results_fruits_poisons.png
 
 Each RUNS argument is a directory of ``seed_*.csv`` (one algorithm on one scenario). Per

@@ -1,0 +1,359 @@
+"""The benchmark's page, docs/benchmark.md, as Markdown from the figures
+``baselines.benchmark.summary`` builds: how it is measured, the tiers, random, scripted
+and open-loop play, a section per tier of PPO, the levels and the provenance."""
+
+from __future__ import annotations
+
+import json
+
+from baselines.benchmark.levels import render_levels
+from baselines.benchmark.summary import VERDICTS
+
+
+def figure_text(x: dict | None) -> str:
+    if x is None:
+        return ""
+    iqm, low, high = (0.0 if abs(x[k]) < 1e-12 else x[k] for k in ("iqm", "low", "high"))
+    return f"{iqm:.3g} ({low:.3g} to {high:.3g})"
+
+
+def ppo_cell(row: dict, seeds: int) -> str:
+    if row["ppo"] is not None:
+        done = row["ppo"]["seeds"]
+        return figure_text(row["ppo"]) + (f", {done} of {seeds} seeds" if done < seeds else "")
+    return "not yet run" if row["learner"] else "not in this tier"
+
+
+def normalised_cell(row: dict, key: str = "normalised") -> str:
+    if row[key] is not None:
+        return figure_text(row[key])
+    if row["scale"] is not None and not row["scale"]["ok"]:
+        return "no scale: scripted does not beat random"
+    return ""
+
+
+def open_loop_cell(row: dict) -> str:
+    answer = row["beats_open_loop"]
+    return answer if answer in ("", "yes") else f"**{answer}**"
+
+
+def solver_text(name: str, kind: str) -> str:
+    if kind == "stream":
+        return "each task's reference"
+    from flatland_ma.scenario.loader import load_scenario
+
+    reference = load_scenario(name).reference
+    if reference is None:
+        return ""
+    if reference.teams:
+        return f"{reference.solver}: {', '.join(reference.teams)}"
+    return reference.solver
+
+
+def markdown_table(headers: list[str], rows: list[list[str]]) -> list[str]:
+    out = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    return out + ["| " + " | ".join(cells) + " |" for cells in rows]
+
+
+def reference_table(rows: list[dict]) -> list[str]:
+    """Random, scripted and open-loop play (the same in every tier)."""
+    headers = ["Task", "Random", "Scripted", "Reference solver", "Open-loop"]
+    headers += ["Open-loop, normalised"]
+    return markdown_table(
+        headers,
+        [
+            [
+                f"`{r['task']}`",
+                figure_text(r["random"]) or "not yet run",
+                figure_text(r["scripted"]) or "not yet run",
+                solver_text(r["task"], r["kind"]),
+                figure_text(r["open_loop"]) or "not yet run",
+                normalised_cell(r, "open_loop_normalised"),
+            ]
+            for r in rows
+        ],
+    )
+
+
+def table(rows: list[dict], seeds: int) -> list[str]:
+    """One tier's PPO figures per task."""
+    headers = ["Task", "PPO", "PPO, normalised", "Beats open-loop", "Configuration"]
+    headers += ["Budget", "CPU per seed", "Verdict"]
+    out = []
+    for r in rows:
+        budget = f"{r['budget']:,}" if r["learner"] or r["ppo"] else "-"
+        cpu = f"{r['cpu_seconds'] / len(r['runs']) / 60:.1f} min" if r["runs"] else ""
+        out.append(
+            [
+                f"`{r['task']}`",
+                ppo_cell(r, seeds),
+                normalised_cell(r),
+                open_loop_cell(r),
+                r["configuration"] if r["learner"] or r["ppo"] else "-",
+                budget,
+                cpu,
+                r["verdict"],
+            ]
+        )
+    return markdown_table(headers, out)
+
+
+def runs_table(rows: list[dict]) -> list[str]:
+    """Every PPO seed of a tier: its cost, the machine's load and calibration."""
+    out = []
+    for r in rows:
+        for run in r["runs"]:
+            load = " to ".join("-" if x is None else f"{x:g}" for x in run["load"])
+            calibration = run["calibration"]
+            out.append(
+                [
+                    f"`{r['task']}`",
+                    str(run["seed"]),
+                    f"{run['agent_steps']:,}",
+                    f"{run['cpu_seconds']:.0f}",
+                    "-" if run["wall_seconds"] is None else f"{run['wall_seconds']:.0f}",
+                    load,
+                    "not recorded" if calibration is None else f"{calibration:.0f}",
+                    f"`{run['commit']}`",
+                ]
+            )
+    headers = ["Task", "Seed", "Agent-steps", "CPU s", "Wall s", "Load (1 min)"]
+    headers += ["Calibration (matmuls/CPU-s)", "Commit"]
+    return markdown_table(headers, out)
+
+
+def planned_text(tier: dict) -> str:
+    text = (
+        f"The whole tier is {tier['planned_steps'] / 1e6:.3g}M agent-steps of PPO training "
+        "(every budget times the seeds)"
+    )
+    rate = tier["ppo_rate"]
+    if not rate:
+        return text + "."
+    hours = tier["planned_steps"] / rate / 3600
+    return (
+        text + f"; at the {rate:.0f} agent-steps per CPU-second its committed PPO seeds "
+        f"averaged (training and scoring), about {hours:.1f} CPU-hours."
+    )
+
+
+TIER_TEXT = {
+    "smoke": "regressions only: a short run of every task (the results without a tier)",
+    "standard": "the published budgets' order of magnitude, every task, each in the best "
+    "shipped configuration known for it",
+    "certificate": "ten times the standard budget, for the tasks still open at it (the "
+    "settings file lists them)",
+}
+
+
+def figure_path(tier: str) -> str:
+    """A tier's figure, relative to docs/ (smoke's keeps the page's first name)."""
+    return "images/benchmark.png" if tier == "smoke" else f"images/benchmark_{tier}.png"
+
+
+def open_at_standard(summary: dict) -> list[str]:
+    """Tasks below half the scripted score at the standard budget that the certificate
+    tier does not run."""
+    tiers = summary["tiers"]
+    if "standard" not in tiers or "certificate" not in tiers:
+        return []
+    only = tiers["certificate"]["only"]
+    return [
+        r["task"]
+        for r in tiers["standard"]["rows"]
+        if r["normalised"] is not None
+        and r["normalised"]["iqm"] < 0.5
+        and only is not None
+        and r["task"] not in only
+    ]
+
+
+def tier_section(tier: dict, summary: dict) -> list[str]:
+    rows = tier["rows"]
+    agg = tier["aggregate"]
+    name = tier["tier"]
+    counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
+    compared = [r for r in rows if r["beats_open_loop"]]
+    missing = [r["task"] for r in rows if r["learner"] and r["ppo"] is None]
+    partial = [
+        r["task"] for r in rows if r["ppo"] is not None and r["ppo"]["seeds"] < tier["seeds"]
+    ]
+    lines = [
+        f"## {name.capitalize()}: {tier['budget']:,} agent-steps x {tier['seeds']} seeds",
+        "",
+        f"The {name} tier: {TIER_TEXT[name]}. `make benchmark TIER={name}` runs it.",
+        "",
+    ]
+    if agg is not None:
+        lines.append(
+            f"Aggregate normalised IQM of PPO over the {agg['tasks']} task"
+            + ("s" if agg["tasks"] != 1 else "")
+            + f" it was run on: **{agg['iqm']:.3g}** "
+            f"(95% interval {agg['low']:.3g} to {agg['high']:.3g}); {tier['half']} at 0.5 "
+            "or above."
+        )
+    else:
+        lines.append("PPO has not been run on any task of this tier yet.")
+    lines += ["", "Verdicts: " + ", ".join(f"{n} {v}" for v, n in counts.items()) + "."]
+    if compared:
+        beaten = [r["task"] for r in compared if r["beats_open_loop"] != "yes"]
+        lines += [
+            "",
+            f"PPO beats open-loop play on {len(compared) - len(beaten)} of the "
+            f"{len(compared)} tasks where both have run"
+            + ("; not shown on " + ", ".join(f"`{t}`" for t in beaten) + "." if beaten else "."),
+        ]
+    lines += [
+        "",
+        f"PPO's CPU time in this tier: {tier['ppo_seconds'] / 3600:.2f} CPU-hours (training "
+        "and scoring, summed over seeds). " + planned_text(tier),
+        "",
+    ]
+    if agg is not None:
+        lines += [
+            f"```{{image}} {figure_path(name)}",
+            f":alt: PPO's normalised score per task in the {name} tier, IQM over seeds with "
+            "95% intervals",
+            ":width: 640px",
+            "```",
+            "",
+        ]
+    for kind, title in (("scenario", "Scenarios"), ("stream", "Streams")):
+        shown = [r for r in rows if r["kind"] == kind and (r["learner"] or r["ppo"])]
+        lines += [f"### {title} ({name})", ""]
+        lines += table(shown, tier["seeds"]) if shown else [f"No {kind} in this tier."]
+        lines.append("")
+    lines += [f"### Not yet run ({name})", ""]
+    if missing:
+        lines.append(
+            f"PPO has no committed result of this tier on these tasks yet; `make benchmark "
+            f"TIER={name}` runs them: " + ", ".join(f"`{m}`" for m in missing) + "."
+        )
+    else:
+        lines.append("Every task of this tier has its PPO results.")
+    if partial:
+        lines += [
+            "",
+            f"PPO has fewer than {tier['seeds']} seeds on "
+            + ", ".join(f"`{m}`" for m in partial)
+            + f"; `make benchmark TIER={name}` runs the rest.",
+        ]
+    if name == "certificate":
+        stray = open_at_standard(summary)
+        lines += [
+            "",
+            "Tasks below 0.5 at the standard budget that this tier does not run yet: "
+            + (", ".join(f"`{t}`" for t in stray) + "." if stray else "none."),
+        ]
+    if any(r["runs"] for r in rows):
+        lines += [
+            "",
+            f"### Runs ({name})",
+            "",
+            "Each PPO seed: its CPU time, the machine's load average before and after it, "
+            "and the calibration timed at its start (256 x 256 matrix products per "
+            "CPU-second of one thread: a faster machine does more).",
+            "",
+            *runs_table(rows),
+        ]
+    return [*lines, ""]
+
+
+def render(summary: dict) -> str:
+    tiers = summary["tiers"]
+    cpu = summary["cpu_seconds"]
+    search = summary["open_loop"]
+    smoke = tiers["smoke"]
+    lines = [
+        "# Benchmark",
+        "",
+        "Random play, open-loop play, each task's scripted reference solver and "
+        "shared-parameter PPO on every shipped scenario and task stream, PPO in tiers of "
+        "budget. Written by `make benchmark-table` from the per-seed JSON files under "
+        "`results/benchmark/` (no training); `make benchmark TIER=smoke|standard|certificate` "
+        "runs what is missing and resumes where it stopped (`baselines/benchmark/`, "
+        "settings in `baselines/benchmark/settings.yaml`).",
+        "",
+        "## How it is measured",
+        "",
+        f"- Random, scripted and open-loop play run {summary['seeds']} seeds on each task, and "
+        "serve every tier (a scripted solver that draws no random numbers, `greedy`, "
+        "`planner` or `carrier`, runs one: its seeds play alike); PPO runs its tier's seeds. "
+        f"Every seed is scored on the same {summary['episodes']} held-out episodes (a "
+        "scenario: reset with seeds 100000 on; a stream: each task's, seeded as "
+        "`baselines.lifelong` seeds its evaluation blocks). A scenario's score is the mean "
+        "return per agent its reference counts (with `carrier_vs_random`, the first team's "
+        "against random play); a stream's is the mean over its tasks (the never-ending "
+        "stream: its first 1000 steps).",
+        "- Open-loop play (`baselines/open_loop.py`): actions by the time step alone, never "
+        f"by what the agent sees. Per seed, {search['candidates']} schedules are drawn (each "
+        f"action uniform, held for 1 to {search['hold']} steps; each agent its own); the one "
+        f"with the best mean over {search['episodes']} training episodes (seeded apart from "
+        "the held-out ones) is kept and scored on the held-out episodes. PPO that does not "
+        "beat it has learnt nothing a fixed schedule of moves could not do.",
+        "- PPO: `baselines.ppo` (one network shared by every agent, on the batched env) for "
+        "the budget of agent-steps the table states, in the configuration it names (options "
+        "in the settings file; the learner's defaults otherwise), then its final checkpoint "
+        "is scored; through a stream of tasks, `baselines.lifelong --method finetune` over "
+        "the stream's life scaled to the budget, scored by its last evaluation block; "
+        "through the never-ending stream, the same learner for the budget "
+        "(`baselines/never_ending.py`), its checkpoint then scored as the other methods are.",
+        "- Tiers: " + "; ".join(f"**{t}**: {TIER_TEXT[t]}" for t in tiers) + ".",
+        "- Figures: interquartile mean over seeds (95% stratified bootstrap interval). "
+        "Normalised: random play 0, scripted play 1 (the means of their seeds). PPO beats "
+        "open-loop play when its interval lies above open-loop play's (raw scores); **no** "
+        "when it lies below, **not shown** when they overlap.",
+        "- Verdicts: " + "; ".join(f"**{name}**: {text}" for name, text in VERDICTS.items()) + ".",
+        "- Learning curves (each scenario's page): the training return at 50 checkpoints of "
+        "each seed, IQM over seeds with its 95% interval, random, scripted and open-loop "
+        "play's held-out scores as lines (`baselines/benchmark/curves.py`; "
+        "`docs/images/curves/`).",
+        "",
+        "## Tiers",
+        "",
+        *markdown_table(
+            ["Tier", "Budget", "Seeds", "Tasks with PPO results", "Aggregate normalised IQM"]
+            + ["At 0.5 or above", "PPO CPU-hours"],
+            [
+                [
+                    t["tier"],
+                    f"{t['budget']:,}",
+                    str(t["seeds"]),
+                    f"{sum(r['ppo'] is not None for r in t['rows'])} of "
+                    f"{sum(r['learner'] for r in t['rows'])}",
+                    figure_text(t["aggregate"]) or "-",
+                    str(t["half"]),
+                    f"{t['ppo_seconds'] / 3600:.2f}",
+                ]
+                for t in tiers.values()
+            ],
+        ),
+        "",
+        f"CPU time of random, scripted and open-loop play: random {cpu['random']:.0f} s, "
+        f"scripted {cpu['scripted']:.0f} s, open-loop {cpu['open_loop']:.0f} s (summed over "
+        "seeds).",
+        "",
+        "## Random, scripted and open-loop play",
+        "",
+        *reference_table(smoke["rows"]),
+        "",
+    ]
+    for tier in tiers.values():
+        lines += tier_section(tier, summary)
+    if summary.get("levels") is not None:
+        lines += [*render_levels(summary["levels"]), ""]
+    lines += [
+        "## Provenance",
+        "",
+        "Commits the results were run at: " + ", ".join(f"`{c}`" for c in summary["commits"]),
+        "",
+        "Versions: "
+        + "; ".join(
+            ", ".join(f"{k} {v}" for k, v in json.loads(v).items()) for v in summary["versions"]
+        ),
+        "",
+        "Each JSON file also holds the machine's load before and after its run and, from "
+        "the tiers on, the calibration timed at its start.",
+        "",
+    ]
+    return "\n".join(lines)
