@@ -169,15 +169,23 @@ def open_at_standard(summary: dict) -> list[str]:
 
 
 def tier_section(tier: dict, summary: dict) -> list[str]:
+    """One tier's section: its figures, its tables, what is missing and its runs."""
+    return [
+        *tier_figures(tier),
+        *tier_tables(tier),
+        *tier_gaps(tier, summary),
+        *tier_runs(tier),
+        "",
+    ]
+
+
+def tier_figures(tier: dict) -> list[str]:
+    """A tier's heading, aggregate, verdicts, PPO against open-loop play, CPU time and figure."""
     rows = tier["rows"]
     agg = tier["aggregate"]
     name = tier["tier"]
     counts = {v: sum(r["verdict"] == v for r in rows) for v in VERDICTS}
     compared = [r for r in rows if r["beats_open_loop"]]
-    missing = [r["task"] for r in rows if r["learner"] and r["ppo"] is None]
-    partial = [
-        r["task"] for r in rows if r["ppo"] is not None and r["ppo"]["seeds"] < tier["seeds"]
-    ]
     lines = [
         f"## {name.capitalize()}: {tier['budget']:,} agent-steps x {tier['seeds']} seeds",
         "",
@@ -218,12 +226,31 @@ def tier_section(tier: dict, summary: dict) -> list[str]:
             "```",
             "",
         ]
+    return lines
+
+
+def tier_tables(tier: dict) -> list[str]:
+    """A tier's PPO figures, scenarios then streams."""
+    lines = []
+    name = tier["tier"]
     for kind, title in (("scenario", "Scenarios"), ("stream", "Streams")):
-        shown = [r for r in rows if r["kind"] == kind and (r["learner"] or r["ppo"])]
+        shown = [r for r in tier["rows"] if r["kind"] == kind and (r["learner"] or r["ppo"])]
         lines += [f"### {title} ({name})", ""]
         lines += table(shown, tier["seeds"]) if shown else [f"No {kind} in this tier."]
         lines.append("")
-    lines += [f"### Not yet run ({name})", ""]
+    return lines
+
+
+def tier_gaps(tier: dict, summary: dict) -> list[str]:
+    """The tasks a tier has not run yet, or not every seed of, and (the certificate's) the
+    tasks open at the standard budget that it does not run."""
+    rows = tier["rows"]
+    name = tier["tier"]
+    missing = [r["task"] for r in rows if r["learner"] and r["ppo"] is None]
+    partial = [
+        r["task"] for r in rows if r["ppo"] is not None and r["ppo"]["seeds"] < tier["seeds"]
+    ]
+    lines = [f"### Not yet run ({name})", ""]
     if missing:
         lines.append(
             f"PPO has no committed result of this tier on these tasks yet; `make benchmark "
@@ -245,26 +272,38 @@ def tier_section(tier: dict, summary: dict) -> list[str]:
             "Tasks below 0.5 at the standard budget that this tier does not run yet: "
             + (", ".join(f"`{t}`" for t in stray) + "." if stray else "none."),
         ]
-    if any(r["runs"] for r in rows):
-        lines += [
-            "",
-            f"### Runs ({name})",
-            "",
-            "Each PPO seed: its CPU time, the machine's load average before and after it, "
-            "and the calibration timed at its start (256 x 256 matrix products per "
-            "CPU-second of one thread: a faster machine does more).",
-            "",
-            *runs_table(rows),
-        ]
-    return [*lines, ""]
+    return lines
+
+
+def tier_runs(tier: dict) -> list[str]:
+    """Every PPO seed of a tier, if it has any."""
+    if not any(r["runs"] for r in tier["rows"]):
+        return []
+    return [
+        "",
+        f"### Runs ({tier['tier']})",
+        "",
+        "Each PPO seed: its CPU time, the machine's load average before and after it, "
+        "and the calibration timed at its start (256 x 256 matrix products per "
+        "CPU-second of one thread: a faster machine does more).",
+        "",
+        *runs_table(tier["rows"]),
+    ]
 
 
 def render(summary: dict) -> str:
-    tiers = summary["tiers"]
-    cpu = summary["cpu_seconds"]
-    search = summary["open_loop"]
-    smoke = tiers["smoke"]
-    lines = [
+    """The whole page, docs/benchmark.md."""
+    lines = [*page_head(), *measured_text(summary), *tiers_text(summary)]
+    for tier in summary["tiers"].values():
+        lines += tier_section(tier, summary)
+    if summary.get("levels") is not None:
+        lines += [*render_levels(summary["levels"]), ""]
+    return "\n".join([*lines, *provenance(summary)])
+
+
+def page_head() -> list[str]:
+    """The title and what the page is made from."""
+    return [
         "# Benchmark",
         "",
         "Random play, open-loop play, each task's scripted reference solver and "
@@ -274,6 +313,14 @@ def render(summary: dict) -> str:
         "runs what is missing and resumes where it stopped (`baselines/benchmark/`, "
         "settings in `baselines/benchmark/settings.yaml`).",
         "",
+    ]
+
+
+def measured_text(summary: dict) -> list[str]:
+    """How it is measured: the methods, tiers, figures, verdicts and curves."""
+    tiers = summary["tiers"]
+    search = summary["open_loop"]
+    return [
         "## How it is measured",
         "",
         f"- Random, scripted and open-loop play run {summary['seeds']} seeds on each task, and "
@@ -309,6 +356,14 @@ def render(summary: dict) -> str:
         "play's held-out scores as lines (`baselines/benchmark/curves.py`; "
         "`docs/images/curves/`).",
         "",
+    ]
+
+
+def tiers_text(summary: dict) -> list[str]:
+    """The tiers side by side, the reference methods' CPU time, and their table."""
+    tiers = summary["tiers"]
+    cpu = summary["cpu_seconds"]
+    return [
         "## Tiers",
         "",
         *markdown_table(
@@ -335,14 +390,14 @@ def render(summary: dict) -> str:
         "",
         "## Random, scripted and open-loop play",
         "",
-        *reference_table(smoke["rows"]),
+        *reference_table(tiers["smoke"]["rows"]),
         "",
     ]
-    for tier in tiers.values():
-        lines += tier_section(tier, summary)
-    if summary.get("levels") is not None:
-        lines += [*render_levels(summary["levels"]), ""]
-    lines += [
+
+
+def provenance(summary: dict) -> list[str]:
+    """The commits and package versions the results were made with."""
+    return [
         "## Provenance",
         "",
         "Commits the results were run at: " + ", ".join(f"`{c}`" for c in summary["commits"]),
@@ -356,4 +411,3 @@ def render(summary: dict) -> str:
         "the tiers on, the calibration timed at its start.",
         "",
     ]
-    return "\n".join(lines)
