@@ -52,9 +52,9 @@ files disagree. A file written before tasks carried versions counts as version 0
 scenario it plays. Checkpoints and logs go to ``<runs>/<task>/`` (a tier other than smoke:
 ``<runs>/<tier>/<task>/``; not committed).
 
-The package's other modules: ``records.py`` (the JSON files, their paths and versions),
-``summary.py``, ``page.py``, ``figures.py`` and ``table.py`` (the page from the files),
-``levels.py`` (runs held to a level, ``python -m baselines.benchmark.levels``),
+The package's other modules: ``records.py`` (the JSON files, their paths and versions);
+``summary.py``, ``page.py``, ``tables.py``, ``figures.py`` and ``table.py`` (the page from
+the files); ``levels.py`` (runs held to a level, ``python -m baselines.benchmark.levels``);
 ``plot.py`` (the paper's figure from ``baselines.run``'s seeds, ``python -m
 baselines.benchmark.plot``) and ``learner_speed.py`` (``baselines.ppo`` against its parts,
 ``python -m baselines.benchmark.learner_speed``). The learners never import this package.
