@@ -25,7 +25,7 @@ DESCRIPTION = (
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(description=DESCRIPTION)
+    parser = argparse.ArgumentParser(prog="python -m baselines.benchmark", description=DESCRIPTION)
     parser.add_argument("--config", default=str(SETTINGS))
     parser.add_argument(
         "--tier", choices=TIERS, default="smoke", help="PPO's budgets and seeds (default smoke)"
