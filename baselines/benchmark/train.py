@@ -1,6 +1,6 @@
-"""The benchmark's PPO: ``baselines.ppo`` on a scenario, ``baselines.lifelong --method
-finetune`` through a stream of tasks (``baselines.never_ending`` through the never-ending
-one: ``baselines.benchmark.runs``), each for its task's budget of agent-steps."""
+"""The benchmark's PPO: ``baselines.ppo`` on a scenario and ``baselines.lifelong --method
+finetune`` through a stream of tasks, each for its task's budget of agent-steps (the
+never-ending stream goes through ``baselines.never_ending``, from ``runs.run_one``)."""
 
 from __future__ import annotations
 
