@@ -88,13 +88,13 @@ bench: $(STAMP)
 	$(BIN)/flatland-ma bench
 	$(BIN)/flatland-ma bench --scale
 
-# The learner against its parts (baselines/bench_learn.py): the env, the acting pass and the
-# update each alone, then baselines.ppo serial and overlapped, in agent-steps per CPU-second,
-# on the one-agent and the four-agent room and on signal_rooms' maps.
+# The learner against its parts (baselines/benchmark/learner_speed.py): the env, the acting
+# pass and the update each alone, then baselines.ppo serial and overlapped, in agent-steps per
+# CPU-second, on the one-agent and the four-agent room and on signal_rooms' maps.
 bench-learn: $(STAMP)
-	$(BIN)/python -m baselines.bench_learn --scenario fruits_poisons
-	$(BIN)/python -m baselines.bench_learn --scenario fruits_poisons_multi
-	$(BIN)/python -m baselines.bench_learn --scenario signal_rooms --loop-timesteps 32768
+	$(BIN)/python -m baselines.benchmark.learner_speed --scenario fruits_poisons
+	$(BIN)/python -m baselines.benchmark.learner_speed --scenario fruits_poisons_multi
+	$(BIN)/python -m baselines.benchmark.learner_speed --scenario signal_rooms --loop-timesteps 32768
 
 # A new `bench --scale --json` run into benchmarks/results/scale.json, then VMAS beside
 # flatland_ma in the same run (benchmarks/peers.py, VMAS in .venv-vmas: its pins clash with
@@ -187,7 +187,7 @@ reproduce: $(STAMP)
 
 RUNS ?= runs
 results: $(STAMP)
-	$(BIN)/python -m baselines.plot $(RUNS)/dqn/fruits_poisons $(RUNS)/a3c/fruits_poisons \
+	$(BIN)/python -m baselines.benchmark.plot $(RUNS)/dqn/fruits_poisons $(RUNS)/a3c/fruits_poisons \
 		$(RUNS)/a3c_lr1e-4/fruits_poisons $(RUNS)/dfp/fruits_poisons \
 		--labels DQN "A3C (lr 1e-5, the paper's)" "A3C (lr 1e-4)" DFP --references 20 \
 		--out docs/images/results_fruits_poisons.png
@@ -195,13 +195,13 @@ results: $(STAMP)
 # Shared-parameter PPO on the paper's room with four agents.
 reproduce-multi: $(STAMP)
 	$(BIN)/python -m baselines.run ppo --seeds 3 --workers $(WORKERS) --steps 1000000 --out runs
-	$(BIN)/python -m baselines.plot $(RUNS)/ppo/fruits_poisons_multi --labels "PPO (shared parameters)" \
+	$(BIN)/python -m baselines.benchmark.plot $(RUNS)/ppo/fruits_poisons_multi --labels "PPO (shared parameters)" \
 		--by-agent --references 20 --out docs/images/results_fruits_poisons_multi.png
 
 # Random, scripted and open-loop play and PPO on every shipped scenario and stream, one JSON
 # per seed under results/benchmark/; done seeds are skipped, so it resumes. PPO's budgets and
-# seeds come from the tier (baselines/benchmark.yaml): TIER=smoke (100k x 3 seeds, the
-# default), standard (1M x 5) or certificate (10M x 3, its listed tasks); hours of CPU
+# seeds come from the tier (baselines/benchmark/settings.yaml): TIER=smoke (100k x 3 seeds,
+# the default), standard (1M x 5) or certificate (10M x 3, its listed tasks); hours of CPU
 # beyond smoke. benchmark-table rebuilds docs/benchmark.md, the figures and each scenario's
 # learning curve (docs/images/curves/) from the JSON alone.
 TIER ?= smoke
@@ -210,7 +210,7 @@ benchmark: $(STAMP)
 	$(MAKE) benchmark-table
 
 benchmark-table: $(STAMP)
-	$(BIN)/python -m baselines.benchmark_table
+	$(BIN)/python -m baselines.benchmark.table
 
 # Style (ruff) and types (pyright, configured in pyproject.toml: zero errors on flatland_ma/).
 lint: $(STAMP)

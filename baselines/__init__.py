@@ -7,13 +7,17 @@ One readable file per algorithm, after CleanRL: ``dqn.py`` (keras-rl's DQN),
 batched env), ``lifelong.py`` (PPO through a task stream: fine-tuning, cloning from
 replay, and the single-task reference) and ``rllib_ppo.py`` (Ray RLlib). ``networks.py``
 encodes any observation by its entries' shapes; ``common.py`` holds the pieces the
-paper's three share; ``run.py`` runs many seeds and ``plot.py`` draws the paper's figure
-and the results table. They run on any scenario: the log's counters are the scenario's
-own (``common.info_counters``).
+paper's three share; ``run.py`` runs many seeds. They run on any scenario: the log's
+counters are the scenario's own (``common.info_counters``).
+
+The reports live apart, in ``benchmark/``, and the learners never import them: the
+benchmark (``python -m baselines.benchmark``) and its page, the levels, the paper's figure
+and results table (``benchmark/plot.py``) and the learner's speed against its parts
+(``benchmark/learner_speed.py``).
 
     python -m baselines.dqn --seed 0 --total-timesteps 250000
     python -m baselines.run dqn --seeds 30 --workers 2 --steps 250000 --out runs
-    python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons
+    python -m baselines.benchmark.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons
 """
 
 import os

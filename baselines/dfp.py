@@ -170,6 +170,110 @@ class DFPNetwork(nn.Module):
         return expectation + action - action.mean(1, keepdim=True)
 
 
+class Replay:
+    """The replay memory: the last ``capacity`` transitions, each overwriting the oldest,
+    with the measurements before and after each and the episode it belongs to."""
+
+    def __init__(self, capacity: int, channels: int, rays: int, n_measurements: int):
+        self.capacity = capacity
+        self.observations = np.zeros((capacity, channels, rays), np.float32)
+        self.measurements = np.zeros((capacity, n_measurements), np.float32)  # at the state
+        self.next_measurements = np.zeros((capacity, n_measurements), np.float32)  # after
+        self.actions = np.zeros(capacity, np.int64)
+        self.episodes = np.zeros(capacity, np.int64)
+
+    def store(self, step: int, x, m, next_m, action: int, episode: int) -> None:
+        slot = step % self.capacity
+        self.observations[slot] = x
+        self.measurements[slot], self.next_measurements[slot] = m, next_m
+        self.actions[slot], self.episodes[slot] = action, episode
+
+    def sample(self, rng: np.random.Generator, written: int, offsets: np.ndarray, size: int):
+        """A uniform minibatch of the ``written`` transitions so far: (index, targets,
+        mask). For a transition j and offset tau, the target is m_{j+tau} - m_j, where
+        m_{j+tau} is the measurement after transition j+tau-1; it counts only if that
+        transition belongs to j's episode (offsets past the episode end are masked)."""
+        capacity = self.capacity
+        index = rng.integers(max(0, written - capacity), written - offsets[-1] + 1, size)
+        ahead = (index[:, None] + offsets[None] - 1) % capacity
+        index %= capacity
+        targets = self.next_measurements[ahead] - self.measurements[index][:, None]
+        same = self.episodes[ahead] == self.episodes[index][:, None]
+        mask = np.repeat(same, self.measurements.shape[1], axis=1)
+        return index, targets, mask  # targets: (B, offsets, M)
+
+
+class Learner:
+    """The network, its optimiser and input normaliser, the goal and the measurements'
+    scale: how the agent acts (``act``, ``greedy``) and learns (``learn``)."""
+
+    def __init__(self, args: Args, counters: tuple[str, ...], channels, rays, n_actions):
+        self.args, self.counters, self.n_actions = args, counters, n_actions
+        self.scale = np.array([args.measurement_scale[name] for name in counters], np.float32)
+        self.offsets = np.array(args.offsets, np.int64)
+        weights = np.array([args.goal[name] for name in counters], np.float32)
+        self.goal = torch.from_numpy(np.tile(weights, len(self.offsets)))  # offset-major
+        print(f"measurements {list(counters)}, goal {weights.tolist()}", flush=True)
+        self.network = DFPNetwork(
+            channels, rays, len(counters), len(self.offsets), n_actions, args.keras_head
+        )
+        self.optimizer = torch.optim.Adam(
+            self.network.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
+        )
+        self.normalize = RunningNormalizer((channels, rays))
+
+    def measure(self, info: dict) -> np.ndarray:
+        return np.array([info[name] for name in self.counters], np.float32) / self.scale
+
+    def epsilon(self, step: int) -> float:
+        args = self.args
+        annealed = max(0, step - args.learning_starts) / args.epsilon_steps
+        return max(
+            args.epsilon_end,
+            args.epsilon_start - annealed * (args.epsilon_start - args.epsilon_end),
+        )
+
+    def act(self, x: np.ndarray, m: np.ndarray, step: int, rng: np.random.Generator) -> int:
+        """Epsilon-greedy on goal . predicted change, per action (at random before
+        ``learning_starts``); the normaliser learns from ``x``."""
+        args, goal = self.args, self.goal
+        x_t = torch.from_numpy(x)
+        if args.normalize_inputs:
+            self.normalize.update(x_t)
+        if step < args.learning_starts or rng.random() < self.epsilon(step):
+            return int(rng.integers(self.n_actions))
+        with torch.no_grad():
+            x_in = self.normalize(x_t[None]) if args.normalize_inputs else x_t[None]
+            prediction = self.network(x_in, torch.from_numpy(m)[None], goal[None])[0]
+        return int((prediction @ goal).argmax())
+
+    def greedy(self, observation: np.ndarray, info: dict) -> int:
+        x_t = torch.from_numpy(to_input(observation, self.args.use_depth))[None]
+        m_t = torch.from_numpy(self.measure(info))[None]
+        with torch.no_grad():
+            x_in = self.normalize(x_t) if self.args.normalize_inputs else x_t
+            return int((self.network(x_in, m_t, self.goal[None])[0] @ self.goal).argmax())
+
+    def learn(self, replay: Replay, written: int, rng: np.random.Generator) -> None:
+        """One step on a minibatch: the mean squared error of the taken action's
+        predictions over the unmasked targets."""
+        size = self.args.batch_size
+        index, targets, mask = replay.sample(rng, written, self.offsets, size)
+        s = torch.from_numpy(replay.observations[index])
+        if self.args.normalize_inputs:
+            s = self.normalize(s)
+        prediction = self.network(
+            s, torch.from_numpy(replay.measurements[index]), self.goal.expand(size, -1)
+        )
+        taken = prediction[torch.arange(size), torch.from_numpy(replay.actions[index])]
+        error = (taken - torch.from_numpy(targets.reshape(size, -1))).square()
+        weights = torch.from_numpy(mask.astype(np.float32))
+        loss = (error * weights).sum() / weights.sum().clamp(min=1.0)
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        self.optimizer.step()
+
+
 def main(args: Args) -> dict:
     seed_everything(args.seed)
     rng = np.random.default_rng(args.seed)
@@ -186,105 +290,39 @@ def main(args: Args) -> dict:
             args.measurement_scale, default_scale(counters), "--measurement-scale"
         ),
     )
-    scale = np.array([args.measurement_scale[name] for name in counters], np.float32)
-    offsets = np.array(args.offsets, np.int64)
-    weights = np.array([args.goal[name] for name in counters], np.float32)
-    goal = torch.from_numpy(np.tile(weights, len(offsets)))  # offset-major, as the targets
-    n_measurements = len(counters)
-    csv_path = args.csv or default_csv("dfp", args.scenario, args.seed)
-    log = RunLog("dfp", csv_path, args.seed, args, counters)
-    print(f"measurements {list(counters)}, goal {weights.tolist()}", flush=True)
-
-    network = DFPNetwork(channels, rays, n_measurements, len(offsets), n_actions, args.keras_head)
-    optimizer = torch.optim.Adam(
-        network.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
+    log = RunLog(
+        "dfp", args.csv or default_csv("dfp", args.scenario, args.seed), args.seed, args, counters
     )
-    normalize = RunningNormalizer((channels, rays))
+    learner = Learner(args, counters, channels, rays, n_actions)
+    replay = Replay(args.buffer_size, channels, rays, len(counters))
 
-    capacity = args.buffer_size
-    observations = np.zeros((capacity, channels, rays), np.float32)
-    measurements = np.zeros((capacity, n_measurements), np.float32)  # at the state
-    next_measurements = np.zeros((capacity, n_measurements), np.float32)  # after the action
-    actions = np.zeros(capacity, np.int64)
-    episodes = np.zeros(capacity, np.int64)
-
-    def measure(info: dict) -> np.ndarray:
-        return np.array([info[name] for name in counters], np.float32) / scale
-
-    x, m = to_input(observation, args.use_depth), measure(info)
+    x, m = to_input(observation, args.use_depth), learner.measure(info)
     episode, episode_return, start = 0, 0.0, time.perf_counter()
     for global_step in range(args.total_timesteps):
-        # Act: epsilon-greedy on goal . predicted change, per action.
-        x_t = torch.from_numpy(x)
-        if args.normalize_inputs:
-            normalize.update(x_t)
-        annealed = max(0, global_step - args.learning_starts) / args.epsilon_steps
-        epsilon = max(
-            args.epsilon_end,
-            args.epsilon_start - annealed * (args.epsilon_start - args.epsilon_end),
-        )
-        if global_step < args.learning_starts or rng.random() < epsilon:
-            action = int(rng.integers(n_actions))
-        else:
-            with torch.no_grad():
-                x_in = normalize(x_t[None]) if args.normalize_inputs else x_t[None]
-                prediction = network(x_in, torch.from_numpy(m)[None], goal[None])[0]
-            action = int((prediction @ goal).argmax())
+        action = learner.act(x, m, global_step, rng)
         observation, reward, terminated, truncated, info = env.step(action)
-        next_m = measure(info)
-
-        slot = global_step % capacity
-        observations[slot], measurements[slot], next_measurements[slot] = x, m, next_m
-        actions[slot], episodes[slot] = action, episode
+        next_m = learner.measure(info)
+        replay.store(global_step, x, m, next_m, action, episode)
         episode_return += reward
         x, m = to_input(observation, args.use_depth), next_m
         if terminated or truncated:
             log.episode(global_step + 1, episode_return, info)
             print(
                 f"step={global_step + 1} return={episode_return:g} "
-                f"{counters_text(info, counters)} epsilon={epsilon:.3f}",
+                f"{counters_text(info, counters)} epsilon={learner.epsilon(global_step):.3f}",
                 flush=True,
             )
             episode, episode_return = episode + 1, 0.0
             observation, info = env.reset()
-            x, m = to_input(observation, args.use_depth), measure(info)
+            x, m = to_input(observation, args.use_depth), learner.measure(info)
 
         written = global_step + 1
         if written <= args.learning_starts or global_step % args.train_frequency:
             continue
-        # Learn. For a transition j and offset tau, the target is m_{j+tau} - m_j, where
-        # m_{j+tau} is the measurement after transition j+tau-1; it counts only if that
-        # transition belongs to j's episode (offsets past the episode end are masked).
-        # Loss: mean squared error of the taken action's predictions over unmasked targets.
-        index = rng.integers(max(0, written - capacity), written - offsets[-1] + 1, args.batch_size)
-        ahead = (index[:, None] + offsets[None] - 1) % capacity
-        index %= capacity
-        targets = next_measurements[ahead] - measurements[index][:, None]  # (B, offsets, M)
-        mask = np.repeat(episodes[ahead] == episodes[index][:, None], n_measurements, axis=1)
-        s = torch.from_numpy(observations[index])
-        if args.normalize_inputs:
-            s = normalize(s)
-        prediction = network(
-            s, torch.from_numpy(measurements[index]), goal.expand(args.batch_size, -1)
-        )
-        taken = prediction[torch.arange(args.batch_size), torch.from_numpy(actions[index])]
-        error = (taken - torch.from_numpy(targets.reshape(args.batch_size, -1))).square()
-        weights = torch.from_numpy(mask.astype(np.float32))
-        loss = (error * weights).sum() / weights.sum().clamp(min=1.0)
-        optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        optimizer.step()
+        learner.learn(replay, written, rng)
 
     total = time.perf_counter() - start
-
-    def greedy(observation: np.ndarray, info: dict) -> int:
-        x_t = torch.from_numpy(to_input(observation, args.use_depth))[None]
-        m_t = torch.from_numpy(measure(info))[None]
-        with torch.no_grad():
-            x_in = normalize(x_t) if args.normalize_inputs else x_t
-            return int((network(x_in, m_t, goal[None])[0] @ goal).argmax())
-
-    evaluation = evaluate_after_training(args, greedy)
+    evaluation = evaluate_after_training(args, learner.greedy)
     summary = log.close(args.total_timesteps, env.seconds, evaluation=evaluation)
     print(
         f"done: {args.total_timesteps} steps in {total:.0f} s, "

@@ -100,6 +100,61 @@ def boltzmann(q_values: np.ndarray, temperature: float, rng: np.random.Generator
     return int(rng.choice(len(p), p=p / p.sum()))
 
 
+class Replay:
+    """The replay memory: the last ``capacity`` transitions, each overwriting the oldest."""
+
+    def __init__(self, capacity: int, channels: int, rays: int):
+        self.capacity = capacity
+        self.observations = np.zeros((capacity, channels, rays), np.float32)
+        self.next_observations = np.zeros((capacity, channels, rays), np.float32)
+        self.actions = np.zeros(capacity, np.int64)
+        self.rewards = np.zeros(capacity, np.float32)
+        self.terminateds = np.zeros(capacity, np.float32)
+
+    def store(self, step: int, x, next_x, action: int, reward: float, terminated: bool) -> None:
+        """Step ``step``'s transition. The step limit is a truncation, not stored: the
+        target bootstraps through it."""
+        slot = step % self.capacity
+        self.observations[slot], self.next_observations[slot] = x, next_x
+        self.actions[slot], self.rewards[slot] = action, reward
+        self.terminateds[slot] = float(terminated)
+
+    def sample(self, rng: np.random.Generator, step: int, size: int) -> tuple[torch.Tensor, ...]:
+        """A uniform minibatch of the transitions stored by step ``step``: (observations,
+        next observations, actions, rewards, 1 - terminated)."""
+        index = rng.integers(0, min(step + 1, self.capacity), size)
+        return (
+            torch.from_numpy(self.observations[index]),
+            torch.from_numpy(self.next_observations[index]),
+            torch.from_numpy(self.actions[index]),
+            torch.from_numpy(self.rewards[index]),
+            1.0 - torch.from_numpy(self.terminateds[index]),
+        )
+
+
+def learn(args: Args, q_network, target_network, optimizer, normalize, batch) -> None:
+    """One double-DQN step on a minibatch, then a soft target update."""
+    s, s_next, a, r, not_done = batch
+    if args.normalize_inputs:
+        s, s_next = normalize(s), normalize(s_next)
+    with torch.no_grad():
+        q_next_target = target_network(s_next)
+        if args.double_q:
+            a_next = q_network(s_next).argmax(1, keepdim=True)
+        else:
+            a_next = q_next_target.argmax(1, keepdim=True)
+        # y = r + gamma * Q_target(s', a*), a* = argmax_a Q_online(s', a) (double DQN)
+        y = r + args.gamma * not_done * q_next_target.gather(1, a_next).squeeze(1)
+    q_taken = q_network(s).gather(1, a[:, None]).squeeze(1)
+    loss = 0.5 * F.mse_loss(q_taken, y)  # keras-rl: Huber with infinite clip = 1/2 x^2
+    optimizer.zero_grad(set_to_none=True)
+    loss.backward()
+    optimizer.step()
+    with torch.no_grad():  # target <- (1 - tau) target + tau online
+        for target_param, param in zip(target_network.parameters(), q_network.parameters()):
+            target_param.lerp_(param, args.tau)
+
+
 def main(args: Args) -> dict:
     seed_everything(args.seed)
     rng = np.random.default_rng(args.seed)
@@ -117,13 +172,7 @@ def main(args: Args) -> dict:
         q_network.parameters(), lr=args.learning_rate, betas=(0.9, 0.999), fused=True
     )
     normalize = RunningNormalizer((channels, rays))
-
-    capacity = min(args.buffer_size, args.total_timesteps)
-    observations = np.zeros((capacity, channels, rays), np.float32)
-    next_observations = np.zeros((capacity, channels, rays), np.float32)
-    actions = np.zeros(capacity, np.int64)
-    rewards = np.zeros(capacity, np.float32)
-    terminateds = np.zeros(capacity, np.float32)
+    replay = Replay(min(args.buffer_size, args.total_timesteps), channels, rays)
 
     x = to_input(observation, args.use_depth)
     episode_return, start = 0.0, time.perf_counter()
@@ -137,11 +186,7 @@ def main(args: Args) -> dict:
         action = boltzmann(q.numpy(), args.temperature, rng)
         observation, reward, terminated, truncated, info = env.step(action)
         next_x = to_input(observation, args.use_depth)
-
-        # Store. The step limit is a truncation: the target bootstraps through it.
-        slot = global_step % capacity
-        observations[slot], next_observations[slot] = x, next_x
-        actions[slot], rewards[slot], terminateds[slot] = action, reward, float(terminated)
+        replay.store(global_step, x, next_x, action, reward, terminated)
         episode_return += reward
         x = next_x
         if terminated or truncated:
@@ -154,36 +199,15 @@ def main(args: Args) -> dict:
             episode_return = 0.0
             observation, info = env.reset()
             x = to_input(observation, args.use_depth)
-
         if global_step + 1 < args.learning_starts or global_step % args.train_frequency:
             continue
-        # Learn: one double-DQN step on a uniform minibatch, then a soft target update.
-        index = rng.integers(0, min(global_step + 1, capacity), args.batch_size)
-        s = torch.from_numpy(observations[index])
-        s_next = torch.from_numpy(next_observations[index])
-        if args.normalize_inputs:
-            s, s_next = normalize(s), normalize(s_next)
-        a = torch.from_numpy(actions[index])
-        r = torch.from_numpy(rewards[index])
-        not_done = 1.0 - torch.from_numpy(terminateds[index])
-        with torch.no_grad():
-            q_next_target = target_network(s_next)
-            if args.double_q:
-                a_next = q_network(s_next).argmax(1, keepdim=True)
-            else:
-                a_next = q_next_target.argmax(1, keepdim=True)
-            # y = r + gamma * Q_target(s', a*), a* = argmax_a Q_online(s', a) (double DQN)
-            y = r + args.gamma * not_done * q_next_target.gather(1, a_next).squeeze(1)
-        q_taken = q_network(s).gather(1, a[:, None]).squeeze(1)
-        loss = 0.5 * F.mse_loss(q_taken, y)  # keras-rl: Huber with infinite clip = 1/2 x^2
-        optimizer.zero_grad(set_to_none=True)
-        loss.backward()
-        optimizer.step()
-        with torch.no_grad():  # target <- (1 - tau) target + tau online
-            for target_param, param in zip(target_network.parameters(), q_network.parameters()):
-                target_param.lerp_(param, args.tau)
+        batch = replay.sample(rng, global_step, args.batch_size)
+        learn(args, q_network, target_network, optimizer, normalize, batch)
+    return finish(args, q_network, normalize, env, log, time.perf_counter() - start)
 
-    total = time.perf_counter() - start
+
+def finish(args: Args, q_network, normalize, env, log: RunLog, total: float) -> dict:
+    """The final network's play after training, and the run's summary (its JSON)."""
 
     def greedy(observation: np.ndarray, info: dict) -> int:
         x_t = torch.from_numpy(to_input(observation, args.use_depth))[None]

@@ -55,6 +55,7 @@ from baselines.common import (
 )
 from baselines.curriculum import Stage, curriculum_stages
 from baselines.networks import Agent
+from baselines.ppo_episodes import Episodes
 from baselines.ppo_learner import Overlapped, Rollout, keep_freed_memory
 from baselines.ppo_memory import MemoryRollout
 from baselines.ppo_presets import with_preset
@@ -190,155 +191,177 @@ def main(args: Args) -> dict:
     seed_everything(args.seed)
     torch.set_num_threads(args.torch_threads)
     keep_freed_memory()
-    stages = curriculum_stages(args.curriculum) if args.curriculum else []
-    total_timesteps = sum(s.steps for s in stages) if stages else args.total_timesteps
-    ends = np.cumsum([s.steps for s in stages])
-    stage = 0
-    env = batched_env(args, stages[0] if stages else None)
-    space = env.single_observation_space
-    slots = env.num_slots
-    names = env.possible_agents
-    m = env.agents_per_world
-    iterations = max(1, total_timesteps // (slots * args.num_steps))
-    csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
-    run_dir = csv_path.with_suffix("")
-    # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
-    # from their cache), the network and the optimiser (its first import of torch's
-    # compiler takes a second or more).
-    observation, infos = env.reset(seed=args.seed * args.num_envs)
-    agent = Agent(
-        space,
-        env.single_action_space,
-        args.hidden,
-        input_channels(args.use_depth),
-        args.network,
-        state_size=env.single_state_space.shape[0] + m if args.critic == "state" else 0,
-        memory=args.memory,
-        memory_size=args.memory_size,
-        frames=args.frames,
-    )
-    optimizer = torch.optim.Adam(agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True)
-    # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
-    counters = tuple(k for k in infos if k != "active" and infos[k].dtype.kind in "iuf")
-    log = RunLog("ppo", str(csv_path), args.seed, args, counters)
-    scalars = Scalars(run_dir if args.tensorboard else None)
-    overlapped = (
-        Overlapped(agent, env, observation, args.num_steps, args.seed) if args.overlap else None
-    )
-    rollout = (MemoryRollout if agent.remembers else Rollout)(
-        agent, env, observation, args.num_steps
-    )
-    if overlapped is not None:
+    run = Training(args)
+    if run.overlapped is not None:
         print("overlap: each rollout is acted by the policy of one update before", flush=True)
     start, cpu_start = time.perf_counter(), cpu_seconds()
-    setup_cpu = cpu_start - setup_cpu
+    for iteration in range(1, run.iterations + 1):
+        run.iterate(iteration, start)
+    return run.finish(start, cpu_start, cpu_start - setup_cpu, load_start)
 
-    def save(path: Path, update: int) -> None:
-        write_checkpoint(
-            path,
-            agent,
-            scenario=args.scenario,
-            observation_space=space,
-            action_space=env.single_action_space,
-            optimizer=optimizer.state_dict(),
-            extra={
-                "algorithm": "ppo",
-                "trained_with": ["self"],  # self-play: every slot is this policy
-                "overrides": {"channel": None} if args.no_channel else {},
-                "padded": env.padding is not None,
-                "args": asdict(args),
-                "update": update,
-                "agent_steps": global_step,
-            },
+
+class Training:
+    """One run: its worlds, network, optimiser, rollouts and log (``__init__``, the
+    start-up), an update at a time (``iterate``), and its end (``finish``)."""
+
+    def __init__(self, args: Args):
+        self.args = args
+        self.stages = curriculum_stages(args.curriculum) if args.curriculum else []
+        total_timesteps = sum(s.steps for s in self.stages) if self.stages else args.total_timesteps
+        self.ends = np.cumsum([s.steps for s in self.stages])
+        self.stage = 0
+        self.env = env = batched_env(args, self.stages[0] if self.stages else None)
+        self.iterations = max(1, total_timesteps // (env.num_slots * args.num_steps))
+        self.csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
+        self.run_dir = self.csv_path.with_suffix("")
+        # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
+        # from their cache), the network and the optimiser (its first import of torch's
+        # compiler takes a second or more).
+        self.observation, infos = env.reset(seed=args.seed * args.num_envs)
+        self.agent = agent = Agent(
+            env.single_observation_space,
+            env.single_action_space,
+            args.hidden,
+            input_channels(args.use_depth),
+            args.network,
+            state_size=env.single_state_space.shape[0] + env.agents_per_world
+            if args.critic == "state"
+            else 0,
+            memory=args.memory,
+            memory_size=args.memory_size,
+            frames=args.frames,
         )
+        self.optimizer = torch.optim.Adam(
+            agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True
+        )
+        # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
+        counters = tuple(k for k in infos if k != "active" and infos[k].dtype.kind in "iuf")
+        self.log = RunLog("ppo", str(self.csv_path), args.seed, args, counters)
+        self.scalars = Scalars(self.run_dir if args.tensorboard else None)
+        self.overlapped = (
+            Overlapped(agent, env, self.observation, args.num_steps, args.seed)
+            if args.overlap
+            else None
+        )
+        self.rollout = (MemoryRollout if agent.remembers else Rollout)(
+            agent, env, self.observation, args.num_steps
+        )
+        self.space = env.single_observation_space
+        """The first stage's observations, which the checkpoints describe."""
+        self.learn_from = learning_reward(args, env)
+        self.episodes = Episodes(
+            env.num_slots,
+            env.agents_per_world,
+            env.possible_agents,
+            counters,
+            self.log,
+            self.scalars,
+        )
+        self.began = [0]
+        """The agent-step at which each stage of the curriculum began."""
 
-    learn_from = learning_reward(args, env)
-    episode_returns = np.zeros(slots)
-    finished: dict[int, tuple[float, dict]] = {}
-    """Each slot's return and counters at its episode's end, until its world's ends."""
-    episodes, global_step = 0, 0
+    def next_stage(self) -> None:
+        """The curriculum's next stage: its worlds, reset, and no episode under way."""
+        args, step = self.args, self.episodes.global_step
+        self.stage += 1
+        self.env.close()
+        self.env = batched_env(args, self.stages[self.stage])
+        self.observation, _ = self.env.reset(seed=args.seed * args.num_envs)
+        (self.overlapped or self.rollout).next_acting[:] = True
+        self.episodes.restart()
+        self.learn_from = learning_reward(args, self.env)
+        self.began.append(step)
+        print(f"step={step} curriculum stage {self.stages[self.stage].name}", flush=True)
 
-    def after_step(reward, terminated, done, infos, acted: int) -> None:
-        nonlocal episodes, global_step
-        global_step += acted
-        episode_returns[:] += reward
-        for slot in np.flatnonzero(done):
-            finished[slot] = (episode_returns[slot], {k: infos[k][slot] for k in counters})
-            episode_returns[slot] = 0.0
-        for w in sorted({int(slot // m) for slot in np.flatnonzero(done)}):
-            own = slice(w * m, (w + 1) * m)
-            if (done[own] | ~infos["active"][own]).all():  # the world's episode is over
-                for j in range(m):
-                    episode_return, info = finished.pop(w * m + j)
-                    log.episode(global_step, episode_return, info, names[j], episodes)
-                    scalars.add("charts/episodic_return", episode_return, global_step)
-                print(f"step={global_step} episode={episodes} world={w}", flush=True)
-                episodes += 1
-
-    began = [0]
-    """The agent-step at which each stage of the curriculum began."""
-    for iteration in range(1, iterations + 1):
-        if stage + 1 < len(stages) and global_step >= ends[stage]:
-            stage += 1
-            env.close()
-            env = batched_env(args, stages[stage])
-            observation, _ = env.reset(seed=args.seed * args.num_envs)
-            (overlapped or rollout).next_acting[:] = True
-            episode_returns[:] = 0.0
-            finished.clear()
-            learn_from = learning_reward(args, env)
-            began.append(global_step)
-            print(f"step={global_step} curriculum stage {stages[stage].name}", flush=True)
-        lr = args.learning_rate * (1 - (iteration - 1) / iterations)
+    def iterate(self, iteration: int, start: float) -> None:
+        """One rollout and the update on it (the learning rate annealed), its scalars, and
+        every ``checkpoint_every`` updates a checkpoint."""
+        args, overlapped, episodes = self.args, self.overlapped, self.episodes
+        if self.stage + 1 < len(self.stages) and episodes.global_step >= self.ends[self.stage]:
+            self.next_stage()
+        lr = args.learning_rate * (1 - (iteration - 1) / self.iterations)
         if overlapped is None:
-            observation = rollout.collect(
-                agent, env, observation, args.reward_scale, after_step, learn_from
+            self.observation = self.rollout.collect(
+                self.agent,
+                self.env,
+                self.observation,
+                args.reward_scale,
+                episodes.after_step,
+                self.learn_from,
             )
         else:
-            observation = overlapped.collect(
-                env, observation, args.reward_scale, after_step, learn_from
+            self.observation = overlapped.collect(
+                self.env, self.observation, args.reward_scale, episodes.after_step, self.learn_from
             )
             overlapped.wait()  # the update under way keeps its own learning rate
         if args.anneal_lr:
-            optimizer.param_groups[0]["lr"] = lr
+            self.optimizer.param_groups[0]["lr"] = lr
         if overlapped is None:
-            stats = rollout.learn(agent, optimizer, args)
+            stats = self.rollout.learn(self.agent, self.optimizer, args)
         else:
-            stats = overlapped.learn(agent, optimizer, args)
-        sps = global_step / (time.perf_counter() - start)
+            stats = overlapped.learn(self.agent, self.optimizer, args)
+        sps = episodes.global_step / (time.perf_counter() - start)
         for key, value in {
             **stats,
             "charts/learning_rate": lr,
             "charts/agent_steps_per_s": sps,
         }.items():
-            scalars.add(key, value, global_step)
+            self.scalars.add(key, value, episodes.global_step)
         if args.checkpoint_every and iteration % args.checkpoint_every == 0:
             if overlapped is not None:
                 overlapped.wait()  # the checkpoint holds this iteration's update
-            save(run_dir / f"update_{iteration:05d}{SUFFIX}", iteration)
-    if overlapped is not None:
-        overlapped.wait()
-    save(csv_path.with_suffix(SUFFIX), iterations)
-    scalars.close()
-    env.close()
-    machine = {
-        "cpu_seconds": round(cpu_seconds() - cpu_start, 2),
-        "setup_cpu_seconds": round(setup_cpu, 2),
-        "threads": threads_used(args.torch_threads),
-        "policy_lag": 1 if overlapped is not None else 0,
-        "load_average_start": [round(x, 2) for x in load_start],
-        "load_average_end": [round(x, 2) for x in os.getloadavg()],
-    }
-    if stages:
-        machine["curriculum"] = [{"name": s.name, "began": step} for s, step in zip(stages, began)]
-    busy = time.perf_counter() - start
-    summary = log.close(global_step, (overlapped or rollout).env_seconds, busy, extra=machine)
-    print(
-        f"done: {global_step} agent-steps in {time.perf_counter() - start:.0f} s "
-        f"({machine['cpu_seconds']:.0f} s of CPU), env {summary['env_share']:.1%} of it",
-        flush=True,
-    )
-    return summary
+            self.save(self.run_dir / f"update_{iteration:05d}{SUFFIX}", iteration)
+
+    def save(self, path: Path, update: int) -> None:
+        args = self.args
+        write_checkpoint(
+            path,
+            self.agent,
+            scenario=args.scenario,
+            observation_space=self.space,
+            action_space=self.env.single_action_space,
+            optimizer=self.optimizer.state_dict(),
+            extra={
+                "algorithm": "ppo",
+                "trained_with": ["self"],  # self-play: every slot is this policy
+                "overrides": {"channel": None} if args.no_channel else {},
+                "padded": self.env.padding is not None,
+                "args": asdict(args),
+                "update": update,
+                "agent_steps": self.episodes.global_step,
+            },
+        )
+
+    def finish(self, start: float, cpu_start: float, setup_cpu: float, load_start) -> dict:
+        """The final checkpoint, the log closed with the run's summary (its JSON), which
+        is returned."""
+        overlapped, global_step = self.overlapped, self.episodes.global_step
+        if overlapped is not None:
+            overlapped.wait()
+        self.save(self.csv_path.with_suffix(SUFFIX), self.iterations)
+        self.scalars.close()
+        self.env.close()
+        machine = {
+            "cpu_seconds": round(cpu_seconds() - cpu_start, 2),
+            "setup_cpu_seconds": round(setup_cpu, 2),
+            "threads": threads_used(self.args.torch_threads),
+            "policy_lag": 1 if overlapped is not None else 0,
+            "load_average_start": [round(x, 2) for x in load_start],
+            "load_average_end": [round(x, 2) for x in os.getloadavg()],
+        }
+        if self.stages:
+            machine["curriculum"] = [
+                {"name": s.name, "began": step} for s, step in zip(self.stages, self.began)
+            ]
+        busy = time.perf_counter() - start
+        env_seconds = (overlapped or self.rollout).env_seconds
+        summary = self.log.close(global_step, env_seconds, busy, extra=machine)
+        print(
+            f"done: {global_step} agent-steps in {time.perf_counter() - start:.0f} s "
+            f"({machine['cpu_seconds']:.0f} s of CPU), env {summary['env_share']:.1%} of it",
+            flush=True,
+        )
+        return summary
 
 
 def threads_used(asked: int) -> dict:

@@ -79,9 +79,90 @@ def parse(argv: list[str]) -> tuple[argparse.Namespace, list[str]]:
     return parser.parse_args(argv), extra
 
 
+def child_env() -> dict[str, str]:
+    """The seeds' environment: single-threaded, with this checkout on the path."""
+    package_root = str(Path(__file__).resolve().parent.parent)
+    return {
+        **os.environ,
+        **SINGLE_THREADED,
+        "PYTHONPATH": os.pathsep.join(filter(None, [package_root, os.environ.get("PYTHONPATH")])),
+    }
+
+
+class Seeds:
+    """The seeds running at once, each a process with its own progress bar."""
+
+    def __init__(self, args: argparse.Namespace, extra: list[str], scenario: str, directory: Path):
+        self.args, self.extra, self.scenario, self.directory = args, extra, scenario, directory
+        self.env = child_env()
+        self.running: dict[int, tuple[subprocess.Popen, tqdm]] = {}
+        self.failed: list[int] = []
+        self.done_steps = 0
+        self.free_rows = list(range(1, args.workers + 1))  # screen rows of the per-seed bars
+
+    def command(self, seed: int) -> list[str]:
+        module, fixed = MODULES[self.args.algo]
+        return [
+            sys.executable,
+            "-m",
+            f"baselines.{module}",
+            *fixed,
+            "--seed",
+            str(seed),
+            "--scenario",
+            self.scenario,
+            "--total-timesteps",
+            str(self.args.steps),
+            "--csv",
+            str(self.directory / f"seed_{seed}.csv"),
+            *self.extra,
+        ]
+
+    def start(self, seed: int) -> None:
+        with open(self.directory / f"seed_{seed}.log", "w") as log:
+            process = subprocess.Popen(
+                self.command(seed), stdout=log, stderr=subprocess.STDOUT, env=self.env
+            )
+        bar = tqdm(
+            total=self.args.steps,
+            desc=f"  seed {seed}",
+            unit="step",
+            leave=False,
+            position=self.free_rows.pop(0),
+            dynamic_ncols=True,
+        )
+        self.running[seed] = (process, bar)
+
+    def poll(self) -> None:
+        """Move each seed's bar to its CSV's last step; close the finished seeds'."""
+        steps = self.args.steps
+        for seed, (process, bar) in list(self.running.items()):
+            finished = process.poll() is not None
+            step = steps if finished else last_step(self.directory / f"seed_{seed}.csv.part")
+            bar.update(max(0, min(step, steps) - bar.n))
+            if not finished:
+                continue
+            self.free_rows.append(abs(bar.pos))
+            bar.close()
+            del self.running[seed]
+            self.done_steps += steps
+            if process.returncode == 0:
+                tqdm.write(f"seed {seed} done: {self.directory / f'seed_{seed}.csv'}")
+            else:
+                self.failed.append(seed)
+                tail = (self.directory / f"seed_{seed}.log").read_text().splitlines()[-15:]
+                tqdm.write(f"seed {seed} failed (exit {process.returncode}):\n" + "\n".join(tail))
+
+    def steps_done(self) -> int:
+        return self.done_steps + sum(b.n for _, b in self.running.values())
+
+    def stop(self) -> None:
+        for process, _ in self.running.values():
+            process.terminate()
+
+
 def main(argv: list[str] | None = None) -> int:
     args, extra = parse(sys.argv[1:] if argv is None else argv)
-    module, fixed = MODULES[args.algo]
     scenario = args.scenario or ("fruits_poisons_multi" if args.algo == "ppo" else "fruits_poisons")
     directory = Path(args.out) / (args.name or args.algo) / scenario
     directory.mkdir(parents=True, exist_ok=True)
@@ -89,13 +170,6 @@ def main(argv: list[str] | None = None) -> int:
     todo = [seed for seed in seeds if not (directory / f"seed_{seed}.csv").exists()]
     if len(todo) < len(seeds):
         print(f"{len(seeds) - len(todo)} of {len(seeds)} seeds already complete in {directory}")
-
-    package_root = str(Path(__file__).resolve().parent.parent)
-    env = {
-        **os.environ,
-        **SINGLE_THREADED,
-        "PYTHONPATH": os.pathsep.join(filter(None, [package_root, os.environ.get("PYTHONPATH")])),
-    }
     overall = tqdm(
         total=len(todo) * args.steps,
         desc=f"{args.algo} {scenario}",
@@ -103,68 +177,20 @@ def main(argv: list[str] | None = None) -> int:
         position=0,
         dynamic_ncols=True,
     )
-    running: dict[int, tuple[subprocess.Popen, tqdm]] = {}
-    failed, pending, done_steps = [], list(todo), 0
-    free_rows = list(range(1, args.workers + 1))  # screen rows of the per-seed bars
+    pool, pending = Seeds(args, extra, scenario, directory), list(todo)
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))  # stops the seeds too, below
     try:
-        while pending or running:
-            while pending and len(running) < args.workers:
-                seed = pending.pop(0)
-                command = [
-                    sys.executable,
-                    "-m",
-                    f"baselines.{module}",
-                    *fixed,
-                    "--seed",
-                    str(seed),
-                    "--scenario",
-                    scenario,
-                    "--total-timesteps",
-                    str(args.steps),
-                    "--csv",
-                    str(directory / f"seed_{seed}.csv"),
-                    *extra,
-                ]
-                with open(directory / f"seed_{seed}.log", "w") as log:
-                    process = subprocess.Popen(
-                        command, stdout=log, stderr=subprocess.STDOUT, env=env
-                    )
-                bar = tqdm(
-                    total=args.steps,
-                    desc=f"  seed {seed}",
-                    unit="step",
-                    leave=False,
-                    position=free_rows.pop(0),
-                    dynamic_ncols=True,
-                )
-                running[seed] = (process, bar)
+        while pending or pool.running:
+            while pending and len(pool.running) < args.workers:
+                pool.start(pending.pop(0))
             time.sleep(1.0)
-            for seed, (process, bar) in list(running.items()):
-                finished = process.poll() is not None
-                step = args.steps if finished else last_step(directory / f"seed_{seed}.csv.part")
-                bar.update(max(0, min(step, args.steps) - bar.n))
-                if not finished:
-                    continue
-                free_rows.append(abs(bar.pos))
-                bar.close()
-                del running[seed]
-                done_steps += args.steps
-                if process.returncode == 0:
-                    tqdm.write(f"seed {seed} done: {directory / f'seed_{seed}.csv'}")
-                else:
-                    failed.append(seed)
-                    tail = (directory / f"seed_{seed}.log").read_text().splitlines()[-15:]
-                    tqdm.write(
-                        f"seed {seed} failed (exit {process.returncode}):\n" + "\n".join(tail)
-                    )
-            overall.update(done_steps + sum(b.n for _, b in running.values()) - overall.n)
+            pool.poll()
+            overall.update(pool.steps_done() - overall.n)
     finally:
-        for process, _ in running.values():
-            process.terminate()
+        pool.stop()
     overall.close()
-    if failed:
-        print(f"failed seeds: {failed}; their logs are in {directory}", file=sys.stderr)
+    if pool.failed:
+        print(f"failed seeds: {pool.failed}; their logs are in {directory}", file=sys.stderr)
         return 1
     return 0
 

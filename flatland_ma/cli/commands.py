@@ -1,7 +1,7 @@
 """The ``flatland-ma`` parser (one subcommand a task) and its small commands: ``list``,
-``validate``, ``demo``, ``record`` and ``play``; the others have a module each in this
-package (``bench``, ``evaluate``, ``task_streams`` for ``lifelong``, ``convert`` for
-``checkpoint``, ``studio``).
+``validate``, ``demo`` and ``record``; the others have a module each in this package
+(``keyboard`` for ``play``, ``bench``, ``evaluate``, ``task_streams`` for ``lifelong``,
+``convert`` for ``checkpoint``, ``studio``).
 
 Every option has a checked type (``flatland_ma.cli.options``), and each command's checks
 that need several options or a loaded scenario run right after parsing: a wrong option
@@ -21,6 +21,7 @@ import numpy as np
 import flatland_ma.cli.bench as bench_command
 import flatland_ma.cli.convert as convert_command
 import flatland_ma.cli.evaluate as evaluation
+import flatland_ma.cli.keyboard as keyboard
 import flatland_ma.cli.options as options
 import flatland_ma.cli.studio as studio
 import flatland_ma.cli.task_streams as task_streams
@@ -43,6 +44,19 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, metavar="command")
 
+    _add_scenario_commands(commands)
+    _add_record(commands)
+    keyboard.add_parser(commands)
+    bench_command.add_parser(commands)
+    evaluation.add_parser(commands)
+    task_streams.add_parser(commands)
+    convert_command.add_parser(commands)
+    studio.add_parser(commands)
+    return parser
+
+
+def _add_scenario_commands(commands) -> None:
+    """``list``, ``validate`` and ``demo``."""
     commands.add_parser(
         "list",
         help="the shipped scenarios, one line each",
@@ -72,6 +86,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="folder for the GIF and the PNG, made if missing (default: demo)",
     )
 
+
+def _add_record(commands) -> None:
+    """``record``: a GIF, an MP4 or a PNG of play."""
     record = commands.add_parser(
         "record",
         help="write a GIF or an MP4 (and a PNG of its middle frame), or only a PNG, of play",
@@ -107,80 +124,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     options.world_options(record)
 
-    play = commands.add_parser(
-        "play",
-        help="play with the keyboard (needs a display)",
-        description="Drive one agent with the keyboard; the others follow a policy. "
-        "Discrete: up forward, left/right rotate, space stay, q/e head, g/r grasp/release, "
-        "z/x arm. Continuous: up/down, a/d and left/right move, the same keys for parts. "
-        "Tab: next agent. Esc or closing the window: quit. The world advances while a key "
-        "is held; each episode's score is appended to --scores.",
-    )
-    play.add_argument(
-        "scenario",
-        nargs="?",
-        default="fruits_poisons",
-        help="a shipped scenario's name or a scenario file (default: fruits_poisons)",
-    )
-    play.add_argument(
-        "--seed",
-        type=options.seed,
-        default=None,
-        help="the first episode's; episode e plays seed + e (default: random)",
-    )
-    play.add_argument(
-        "--others",
-        type=options.policy,
-        default=None,
-        metavar="POLICY",
-        help="the policy of the agents you do not drive: one of "
-        f"{', '.join(options.POLICIES)}, or a checkpoint file saved by the baselines "
-        "(default: each agent's scenario's reference solver where it suits the agent, else "
-        "greedy, sniffer, planner or random, the first that does)",
-    )
-    play.add_argument(
-        "--episodes",
-        type=options.positive(options.MAX_EPISODES),
-        default=1,
-        help="episodes to play (default: 1)",
-    )
-    play.add_argument(
-        "--scores",
-        type=options.output_file(),
-        default="play_scores.csv",
-        help="CSV that each episode's score is appended to (time, scenario, seed, agent, steps, "
-        "score) (default: play_scores.csv)",
-    )
-    play.add_argument(
-        "--fps",
-        type=options.number(0.0, options.MAX_FPS, zero="as fast as it goes"),
-        default=30.0,
-        help="frames (and steps) a second, 0 for as fast as it goes (default: 30)",
-    )
-    play.add_argument(
-        "--keys",
-        type=options.key_script,
-        default=None,
-        metavar="SCRIPT",
-        help="keys to press instead of the keyboard, e.g. 'up*20 left*5 tab up*10' (name*N "
-        "holds a key N frames, a+b holds two, wait*N holds none); the game ends with the script "
-        "(default: none: the keyboard)",
-    )
-    play.add_argument(
-        "--screenshot",
-        type=options.output_file(".png"),
-        default=None,
-        help="a PNG of the window at the end (default: none)",
-    )
-    options.world_options(play)
-
-    bench_command.add_parser(commands)
-    evaluation.add_parser(commands)
-    task_streams.add_parser(commands)
-    convert_command.add_parser(commands)
-    studio.add_parser(commands)
-    return parser
-
 
 def subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
     """Each command's parser, by name."""
@@ -215,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
         "validate": _validate,
         "demo": _demo,
         "record": _record,
-        "play": _play,
+        "play": keyboard.run,
         "bench": bench_command.run,
         "evaluate": evaluation.run,
         "lifelong": task_streams.run,
@@ -349,37 +292,3 @@ def _write_recording(scenario, policy, steps, every, seed, out: Path, overrides=
     save_png(frames[len(frames) // 2], out.with_suffix(".png"))
     save = save_mp4 if out.suffix.lower() == ".mp4" else save_gif
     return save(frames, out, fps=env.metadata["render_fps"] / every)
-
-
-def _play(args) -> int:
-    from flatland_ma.play import missing_display
-
-    problem = missing_display()
-    if problem is not None:  # before pygame or the world: nothing to wait for
-        print(problem, file=sys.stderr)
-        return 2
-    from flatland_ma.play import play
-
-    try:
-        session = play(
-            args.scenario,
-            seed=args.seed,
-            others=args.others,
-            episodes=args.episodes,
-            scores=args.scores,
-            fps=args.fps,
-            script=args.keys,
-            screenshot=args.screenshot,
-            overrides=options.world_overrides(args),
-        )
-    except ValueError as err:  # a bad override, a bad key script, a policy that cannot run
-        print(f"flatland-ma play: {err}", file=sys.stderr)
-        return 2
-    for row in session.finished:
-        seed, agent, score, steps = (row[k] for k in ("seed", "agent", "score", "steps"))
-        print(f"episode seed {seed}: {agent} scored {score} in {steps} steps")
-    if session.finished and args.scores:
-        print(f"scores appended to {args.scores}")
-    if session.stopped and session.tallies:
-        print("left before the episode ended: its score is not written")
-    return 0

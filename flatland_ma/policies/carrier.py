@@ -19,7 +19,7 @@ import math
 
 from flatland_ma.agents.grasp import Grasper
 from flatland_ma.build.bodies import make_parts
-from flatland_ma.policies.planner import PlannerPolicy, _descend, _mask_at, _wrap
+from flatland_ma.policies.planner import PlannerPolicy, descend, mask_at, wrap_angle
 from flatland_ma.world.entities import Obstacle
 
 SIDE_SPREAD = math.radians(70)
@@ -131,7 +131,7 @@ class CarrierPolicy:
         spot = (ox - ux * behind, oy - uy * behind)
         x, y = me.body.position
         to_thing = math.atan2(oy - y, ox - x)
-        aligned = abs(_wrap(to_thing - math.atan2(uy, ux))) < math.radians(25)
+        aligned = abs(wrap_angle(to_thing - math.atan2(uy, ux))) < math.radians(25)
         if not aligned or math.dist((x, y), (ox, oy)) > behind + 8.0:
             return self._walk(episode, me, thing, spot)
         return self._steer(me, (ox + ux * 15.0, oy + uy * 15.0))
@@ -147,14 +147,14 @@ class CarrierPolicy:
         grid.blocked[here] = False
         goal = grid.cell_of(*spot)
         grid.blocked[goal] = False
-        field = grid.distances(_mask_at(grid, [goal]))
-        waypoint = _descend(field, here, 3)
+        field = grid.distances(mask_at(grid, [goal]))
+        waypoint = descend(field, here, 3)
         target = grid.centre(*waypoint) if waypoint != here else spot
         return self._steer(me, target)
 
     def _steer(self, me, target, tolerance: float | None = None):
         x, y = me.body.position
-        angle = _wrap(math.atan2(target[1] - y, target[0] - x) - me.body.angle)
+        angle = wrap_angle(math.atan2(target[1] - y, target[0] - x) - me.body.angle)
         if abs(angle) > (tolerance if tolerance is not None else self.turn_step * 0.6):
             return self.ids["rotate_left" if angle > 0 else "rotate_right"]
         return self.ids["forward"]

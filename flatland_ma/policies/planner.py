@@ -63,7 +63,7 @@ class PlannerPolicy:
             grid = self._planning_grid(episode, avoid)
             here = grid.cell_of(x, y)
             _free_around(grid, here)
-            from_me = grid.distances(_mask_at(grid, [here]))
+            from_me = grid.distances(mask_at(grid, [here]))
             goal = self._choose(episode, grid, from_me)
             if goal is not None:
                 break
@@ -73,9 +73,9 @@ class PlannerPolicy:
         # LOOKAHEAD steps of a grid made for this agent (cells half its radius): on the
         # finer grid of a slimmer agent's scenario, as far in units.
         steps = max(LOOKAHEAD, round(LOOKAHEAD * self.radius / (2 * grid.cell)))
-        waypoint = _descend(to_goal, here, steps)
+        waypoint = descend(to_goal, here, steps)
         wx, wy = grid.centre(*waypoint) if waypoint != here else self._target_point
-        angle = _wrap(math.atan2(wy - y, wx - x) - me.angle)
+        angle = wrap_angle(math.atan2(wy - y, wx - x) - me.angle)
         if abs(angle) > self.aim:
             self._escape_turn = -1.0 if angle > 0 else 1.0  # if stuck, try the other way
             return (
@@ -136,7 +136,7 @@ class PlannerPolicy:
                 wanted.append((("switch", z), None, zone.rect))
         best, best_d, kept = None, UNREACHED, None
         for key, point, rect in wanted:
-            mask = _mask_at(grid, [grid.cell_of(*point)]) if rect is None else grid.cells_in(rect)
+            mask = mask_at(grid, [grid.cell_of(*point)]) if rect is None else grid.cells_in(rect)
             d = from_me[mask].min(initial=UNREACHED)
             if d == UNREACHED:
                 continue
@@ -172,14 +172,14 @@ def _free_around(grid, cell, cells: int = 2) -> None:
     grid.blocked[max(0, i - cells) : i + cells + 1, max(0, j - cells) : j + cells + 1] = False
 
 
-def _mask_at(grid, cells) -> np.ndarray:
+def mask_at(grid, cells) -> np.ndarray:
     mask = np.zeros_like(grid.blocked)
     for i, j in cells:
         mask[i, j] = True
     return mask
 
 
-def _descend(dist: np.ndarray, cell: tuple[int, int], steps: int) -> tuple[int, int]:
+def descend(dist: np.ndarray, cell: tuple[int, int], steps: int) -> tuple[int, int]:
     """Follow the distance field down from ``cell`` for ``steps`` cells."""
     ny, nx = dist.shape
     i, j = cell
@@ -196,5 +196,5 @@ def _descend(dist: np.ndarray, cell: tuple[int, int], steps: int) -> tuple[int, 
     return i, j
 
 
-def _wrap(angle: float) -> float:
+def wrap_angle(angle: float) -> float:
     return (angle + math.pi) % (2 * math.pi) - math.pi

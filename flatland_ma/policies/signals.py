@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from flatland_ma.policies.motion import BaseMotion
-from flatland_ma.policies.planner import PlannerPolicy, _mask_at
+from flatland_ma.policies.planner import PlannerPolicy, mask_at
 from flatland_ma.sensors.hearing import MESSAGES
 from flatland_ma.world.entities import Item
 
@@ -104,7 +104,7 @@ class Follower(PlannerPolicy):
             if items:
                 self._target = ("item", items[0].index)
                 self._target_point = items[0].body.position
-                return _mask_at(grid, [grid.cell_of(*items[0].body.position)])
+                return mask_at(grid, [grid.cell_of(*items[0].body.position)])
             self.tried.add(self.room)
             left = [j for j in range(len(self.rooms)) if j not in self.tried]
             if not left:

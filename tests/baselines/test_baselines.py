@@ -579,7 +579,7 @@ def test_every_baseline_logs_the_counters_of_a_scenario_without_fruits(tmp_path,
 
 
 def test_plot_reads_logs_from_before_and_after_the_counters_came_from_the_scenario(tmp_path):
-    from baselines.plot import load_runs, summarise, table
+    from baselines.benchmark.plot import load_runs, summarise, table
 
     def write(path, header, rows):
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -648,7 +648,9 @@ def test_runner_resumes_and_plot_draws_the_figure(tmp_path):
     assert (directory / "seed_0.csv").stat().st_mtime_ns == stamp
 
     png = tmp_path / "figure.png"
-    table = run_module("baselines.plot", str(directory), "--smooth", "1", "--out", str(png))
+    table = run_module(
+        "baselines.benchmark.plot", str(directory), "--smooth", "1", "--out", str(png)
+    )
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     (row,) = [line for line in table.splitlines() if line.startswith("| dqn |")]
     assert "| 2 x 0.5k (1) |" in row
@@ -677,7 +679,7 @@ def test_dqn_beats_random_play(tmp_path):
 
 
 def test_steps_to_80_percent_count_from_where_the_curve_stays_up():
-    from baselines.plot import Run, summarise
+    from baselines.benchmark.plot import Run, summarise
 
     def run(seed, returns):
         returns = np.array(returns, float)
@@ -699,7 +701,7 @@ def test_steps_to_80_percent_count_from_where_the_curve_stays_up():
 
 
 def test_step_counts_in_the_table_keep_three_significant_figures():
-    from baselines.plot import thousands
+    from baselines.benchmark.plot import thousands
 
     assert [thousands(n) for n in (500, 49_000, 250_000)] == ["0.5k", "49k", "250k"]
     # A multi-agent run that stops a little short of 1M is not rounded up to it.

@@ -1,4 +1,4 @@
-"""The benchmark's machinery (baselines/benchmark*.py, baselines/open_loop.py): a tiny run
+"""The benchmark's machinery (baselines/benchmark/, baselines/open_loop.py): a tiny run
 that resumes, tiers kept apart, the calibration and learning curve recorded, open-loop play
 searched and scored, the table's tier sections and curve figures rebuilt from JSON,
 normalisation and IQM against hand-computed values, and the committed page up to date with
@@ -15,15 +15,12 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("tyro")
 
-from baselines.benchmark import OUT, ROOT, result_path, run, write_record  # noqa: E402
-from baselines.benchmark_config import BenchmarkConfig, load_config  # noqa: E402
-from baselines.benchmark_table import (  # noqa: E402
-    build,
-    render,
-    scenario_summary,
-    verdict,
-)
-from baselines.levels import LEVELS_OUT, read_levels, record, render_levels  # noqa: E402
+from baselines.benchmark.config import ROOT, SETTINGS, BenchmarkConfig, load_config  # noqa: E402
+from baselines.benchmark.levels import LEVELS_OUT, read_levels, record, render_levels  # noqa: E402
+from baselines.benchmark.page import render  # noqa: E402
+from baselines.benchmark.records import OUT, result_path, write_record  # noqa: E402
+from baselines.benchmark.runs import run  # noqa: E402
+from baselines.benchmark.summary import build, scenario_summary, verdict  # noqa: E402
 
 TASK = [("fruits_poisons", "scenario")]
 
@@ -212,7 +209,7 @@ def test_a_bad_config_fails_naming_the_key(tmp_path, text, key):
 def test_the_page_is_up_to_date_with_the_committed_results():
     """docs/benchmark.md and results/benchmark/summary.json are written from the committed
     JSON: rebuild them with ``make benchmark-table``."""
-    summary = build(OUT, load_config(ROOT / "baselines" / "benchmark.yaml"), levels=LEVELS_OUT)
+    summary = build(OUT, load_config(SETTINGS), levels=LEVELS_OUT)
     written = (ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8")
     assert written == render(summary), "docs/benchmark.md is out of date: make benchmark-table"
     shown = json.loads((OUT / "summary.json").read_text(encoding="utf-8"))
@@ -354,8 +351,8 @@ def test_a_tier_with_a_task_list_trains_only_those(tmp_path):
 
 
 def test_a_preset_does_not_replace_the_budget(tmp_path):
-    from baselines.benchmark import ppo_args
-    from baselines.benchmark_config import TaskConfig
+    from baselines.benchmark.config import TaskConfig
+    from baselines.benchmark.train import ppo_args
 
     task = TaskConfig(budget=1_000_000, name="p", ppo={"preset": "fruits_poisons"})
     args = ppo_args("fruits_poisons", 3, task, tmp_path / "seed_3.csv")
@@ -370,7 +367,7 @@ def test_a_preset_does_not_replace_the_budget(tmp_path):
 
 
 def test_the_shipped_settings_name_every_tier_and_configuration():
-    config = load_config(ROOT / "baselines" / "benchmark.yaml")
+    config = load_config(SETTINGS)
     assert list(config.tiers) == ["smoke", "standard", "certificate"]
     assert config.task("fruits_poisons").budget == 200_000  # smoke, as before the tiers
     assert (
@@ -379,7 +376,7 @@ def test_the_shipped_settings_name_every_tier_and_configuration():
     assert config.tier("certificate").default.budget == 10**7
     coop = config.task("coop_carry", "standard")
     assert coop.ppo["team_reward"] is True and "curriculum" in coop.name
-    from baselines.benchmark import list_tasks
+    from baselines.benchmark.play import list_tasks
 
     shipped = {name for name, _ in list_tasks()}
     for tier in config.tiers.values():
@@ -437,7 +434,7 @@ def test_open_loop_is_run_and_scored_like_the_other_methods(tmp_path):
 
 
 def test_a_seed_curve_averages_the_episodes_of_each_checkpoint(tmp_path):
-    from baselines.benchmark_curves import seed_curve
+    from baselines.benchmark.curves import seed_curve
 
     log = tmp_path / "seed_0.csv"
     rows = ["seed,episode,step,agent,return,wall_time"]
@@ -457,7 +454,7 @@ def test_a_seed_curve_averages_the_episodes_of_each_checkpoint(tmp_path):
 
 
 def test_a_task_curve_is_the_iqm_over_seeds_with_its_interval():
-    from baselines.benchmark_curves import task_curve
+    from baselines.benchmark.curves import task_curve
 
     curves = [{"steps": [10, 20], "returns": [value, 5.0]} for value in (1.0, 2.0, 3.0, 4.0)] + [
         {"steps": [10, 20], "returns": [100.0, None]}
@@ -472,7 +469,7 @@ def test_a_task_curve_is_the_iqm_over_seeds_with_its_interval():
 
 
 def test_the_page_has_a_section_per_tier_and_each_scenario_its_curve(tmp_path):
-    from baselines.benchmark_table import write
+    from baselines.benchmark.table import write
 
     config_path = tmp_path / "bench.yaml"
     tiny_config(config_path)

@@ -1,6 +1,7 @@
-"""The learner's mechanics (baselines.ppo_learner) and its measurement (baselines.bench_learn):
-the same maths as the textbook forms, collection overlapped with the update without
-changing what a seed gives, and torch's threads as asked whatever the ray kernel does."""
+"""The learner's mechanics (baselines.ppo_learner) and its measurement
+(baselines.benchmark.learner_speed): the same maths as the textbook forms, collection
+overlapped with the update without changing what a seed gives, and torch's threads as
+asked whatever the ray kernel does."""
 
 from __future__ import annotations
 
@@ -16,7 +17,8 @@ import torch
 from gymnasium import spaces
 from safetensors.torch import load_file
 
-from baselines import bench_learn, ppo
+from baselines import ppo
+from baselines.benchmark import learner_speed
 from baselines.networks import Agent
 from baselines.ppo_learner import Overlapped, gae
 from flatland_ma.envs.vector import BatchedParallelEnv
@@ -135,11 +137,11 @@ def test_torch_runs_on_the_threads_asked_whatever_the_ray_kernel_uses(tmp_path):
     assert summary["setup_cpu_seconds"] > 0
 
 
-def test_bench_learn_measures_every_part_and_the_loop(tmp_path):
-    args = bench_learn.Args(
+def test_learner_speed_measures_every_part_and_the_loop(tmp_path):
+    args = learner_speed.Args(
         num_envs=2, num_steps=16, rollouts=1, loop_timesteps=64, json=str(tmp_path / "b.json")
     )
-    figures = bench_learn.main(args)
+    figures = learner_speed.main(args)
     assert set(figures["parts_per_cpu_second"]) == {"env", "act", "update"}
     assert all(rate > 0 for rate in figures["parts_per_cpu_second"].values())
     rates = figures["parts_per_cpu_second"].values()
@@ -147,4 +149,4 @@ def test_bench_learn_measures_every_part_and_the_loop(tmp_path):
     assert set(figures["loops"]) == {"serial", "overlapped"}
     assert figures["loops"]["overlapped"]["policy_lag"] == 1
     assert json.loads((tmp_path / "b.json").read_text())["scenario"] == "fruits_poisons"
-    assert "parts allow" in bench_learn.report(figures)
+    assert "parts allow" in learner_speed.report(figures)

@@ -11,6 +11,7 @@ import pytest
 from flatland_ma.cli import bench as bench_command
 from flatland_ma.cli import commands as cli
 from flatland_ma.cli import evaluate as evaluation
+from flatland_ma.cli import keyboard
 from flatland_ma.cli import task_streams as lifelong
 from flatland_ma.cli.options import MAX_FRAMES
 from flatland_ma.play.keys import MAX_SCRIPT_FRAMES, Keys, ScriptedKeys, parse_script
@@ -29,8 +30,9 @@ def no_work(monkeypatch, tmp_path):
 
         return run
 
-    for name in ("_list", "_validate", "_demo", "_record", "_play"):
+    for name in ("_list", "_validate", "_demo", "_record"):
         monkeypatch.setattr(cli, name, runner(name))
+    monkeypatch.setattr(keyboard, "run", runner("_play"))
     monkeypatch.setattr(bench_command, "run", runner("bench"))
     monkeypatch.setattr(evaluation, "run", runner("evaluate"))
     monkeypatch.setattr(lifelong, "run", runner("lifelong"))

@@ -1,4 +1,4 @@
-"""The benchmark's settings (``baselines/benchmark.yaml``): seeds, held-out episodes, the
+"""The benchmark's settings (``settings.yaml`` beside this file): seeds, held-out episodes, the
 open-loop baseline's search, and the tiers of PPO: each tier's seeds, the tasks it runs and
 each task's budget, options and the name of that configuration. Read strictly: an unknown
 key, a wrong type, a PPO option the learner does not take, an unknown preset or a
@@ -26,7 +26,10 @@ TIERS = ("smoke", "standard", "certificate")
 
 Tier = Literal["smoke", "standard", "certificate"]
 Count = Annotated[int, Field(strict=True, ge=1)]
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
+"""The checkout: results, runs and curricula are found from it."""
+SETTINGS = Path(__file__).resolve().parent / "settings.yaml"
+"""The shipped settings."""
 
 
 class Strict(BaseModel):

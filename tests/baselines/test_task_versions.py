@@ -7,9 +7,9 @@ import gymnasium
 import pytest
 
 import flatland_ma
-from baselines.benchmark import ROOT, VersionMismatch, run, task_versions
-from baselines.benchmark_config import load_config
-from baselines.benchmark_table import _check_current, read_results
+from baselines.benchmark.config import SETTINGS, load_config
+from baselines.benchmark.records import VersionMismatch, check_current, read_results, task_versions
+from baselines.benchmark.runs import run
 from flatland_ma.envs import registration
 from flatland_ma.envs.registration import gym_id, register_gym_ids
 from flatland_ma.scenario.errors import ScenarioError
@@ -65,7 +65,7 @@ def test_the_benchmark_refuses_to_run_beside_results_of_another_version(tmp_path
     fruits = [("fruits_poisons", "scenario")]
     _write(tmp_path, "fruits_poisons", "random", 0)  # from before versions: version 0
     _write(tmp_path, "fruits_poisons", "scripted", 0, {"fruits_poisons": 0})
-    config = load_config(ROOT / "baselines" / "benchmark.yaml")
+    config = load_config(SETTINGS)
     assert run(config, fruits, [], out=tmp_path) == []
     stale = _write(tmp_path, "fruits_poisons", "ppo", 3, {"fruits_poisons": 1})
     with pytest.raises(VersionMismatch) as refused:
@@ -83,14 +83,14 @@ def test_the_table_refuses_a_task_whose_results_are_of_different_versions(tmp_pa
     assert str(old) in str(refused.value) and str(new) in str(refused.value)
     assert "key_door v2" in str(refused.value)
     new.unlink()
-    _check_current("key_door", "scenario", read_results(tmp_path)["key_door"])
+    check_current("key_door", "scenario", read_results(tmp_path)["key_door"])
     made_on_2 = {"random": [{"task_versions": {"key_door": 2}}]}
     with pytest.raises(VersionMismatch, match="made on key_door v2, the task is now version 0"):
-        _check_current("key_door", "scenario", made_on_2)
+        check_current("key_door", "scenario", made_on_2)
 
 
 def test_a_result_written_names_its_versions(tmp_path):
-    shipped = load_config(ROOT / "baselines" / "benchmark.yaml")
+    shipped = load_config(SETTINGS)
     config = shipped.model_copy(update={"seeds": 1, "episodes": 1})
     [path] = run(config, [("push_box", "scenario")], ["random"], tmp_path, tmp_path / "runs")
     record = json.loads(path.read_text())

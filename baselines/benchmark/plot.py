@@ -1,6 +1,6 @@
 """The paper's figure and a results table from the runs' CSVs.
 
-    python -m baselines.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons \\
+    python -m baselines.benchmark.plot runs/dqn/fruits_poisons runs/a3c/fruits_poisons \\
         runs/dfp/fruits_poisons --references 20 --out docs/images/results_fruits_poisons.png
 
 Each RUNS argument is a directory of ``seed_*.csv`` (one algorithm on one scenario). Per
@@ -236,7 +236,7 @@ def table(rows: list[dict], reference_rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main(argv: list[str] | None = None) -> None:
+def parse(argv: list[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
@@ -268,15 +268,13 @@ def main(argv: list[str] | None = None) -> None:
         help="also draw each agent's mean return (multi-agent runs)",
     )
     parser.add_argument("--title", default=None, help="figure title (default: the scenario)")
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
 
-    import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def draw_runs(axes, args: argparse.Namespace) -> tuple[list[dict], str | None]:
+    """Each directory's mean curve and band (and each agent's, with ``--by-agent``) on
+    ``axes``: (each directory's row of the table, the scenario of the first)."""
     labels = args.labels or [d.parent.name for d in args.runs]
-    figure, axes = plt.subplots(figsize=(7, 5.2))
     rows, scenario = [], None
     for directory, label in zip(args.runs, labels):
         runs = load_runs(directory)
@@ -298,6 +296,19 @@ def main(argv: list[str] | None = None) -> None:
                     label=f"{label} {agent}",
                 )
         rows.append(summarise(label, runs, args.smooth, args.final, args.eval_epsilon))
+    return rows, scenario
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = parse(argv)
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, axes = plt.subplots(figsize=(7, 5.2))
+    rows, scenario = draw_runs(axes, args)
     reference_rows = references(scenario, args.references) if args.references else []
     for r, style in zip(reference_rows, ("--", ":")):
         axes.axhline(

@@ -17,7 +17,7 @@ with the others', so that a machine whose speed drifts moves them alike; the mac
 load average is printed beside them, and a calibration (a fixed matrix product, timed in
 the same run) says how fast the machine was.
 
-    python -m baselines.bench_learn --scenario fruits_poisons --num-envs 16
+    python -m baselines.benchmark.learner_speed --scenario fruits_poisons --num-envs 16
 """
 
 from __future__ import annotations
@@ -25,7 +25,6 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -36,6 +35,7 @@ from torch.utils._pytree import tree_leaves
 
 import flatland_ma  # noqa: F401, I001 - first, before torch (flatland_ma.sensors.threads)
 from baselines import ppo
+from baselines.benchmark.machine import calibration
 from baselines.common import cpu_seconds, input_channels
 from baselines.networks import Agent
 from baselines.ppo_learner import Rollout, keep_freed_memory
@@ -59,16 +59,6 @@ class Args:
     """Also run the loop with collection and update overlapped."""
     json: str = ""
     """Also write the figures to this JSON file."""
-
-
-def calibration(rounds: int = 20) -> float:
-    """A fixed piece of work's rate (256 x 256 matrix products per CPU-second on this
-    thread): how fast the machine was while the figures were taken."""
-    a = torch.ones(256, 256)
-    start = time.thread_time()
-    for _ in range(rounds):
-        a = (a @ a).clamp_(max=1.0)
-    return rounds / (time.thread_time() - start)
 
 
 class Parts:

@@ -1,12 +1,12 @@
 """The benchmark's levels: runs of a shipped learner held to a stated level, seed by seed,
 each summarised in a small JSON file under ``results/levels/<level>/`` that the benchmark
-page (``baselines.benchmark_table``) shows with the level's verdict.
+page (``baselines.benchmark.table``) shows with the level's verdict.
 
 A record is taken from a finished ``baselines.ppo`` run, its CSV log and the JSON and
 checkpoint written beside it:
 
-    python -m baselines.levels fruits_poisons_300 runs/ppo/fp_preset/seed_1.csv
-    python -m baselines.levels coop_carry_half runs/coop/coop_carry_s0.csv
+    python -m baselines.benchmark.levels fruits_poisons_300 runs/ppo/fp_preset/seed_1.csv
+    python -m baselines.benchmark.levels coop_carry_half runs/coop/coop_carry_s0.csv
 
 It holds the run's options, agent-steps, wall and CPU time and the load, the mean return
 per agent of its last 50 episodes (and the wall time and agent-step at which a mean of 50
@@ -26,8 +26,9 @@ from typing import Literal
 
 import numpy as np
 
-from baselines.benchmark import OUT, ROOT, play_task, write_record
-from baselines.benchmark_config import load_config
+from baselines.benchmark.config import ROOT, SETTINGS, load_config
+from baselines.benchmark.play import play_task
+from baselines.benchmark.records import OUT, read_results, write_record
 from flatland_ma.evaluation.stats import normalise
 from flatland_ma.policies.checkpoint import SUFFIX
 
@@ -121,9 +122,7 @@ def summarise(csv_path: Path, target: float | None = None) -> dict:
 def held_out(task: str, seed: int, checkpoint: Path) -> dict:
     """The checkpoint's score on the benchmark's held-out episodes, and normalised by the
     benchmark's committed random and scripted scores of the task."""
-    from baselines.benchmark_table import read_results
-
-    config = load_config(ROOT / "baselines" / "benchmark.yaml")
+    config = load_config(SETTINGS)
     score, episodes, _ = play_task(task, "scenario", "ppo", seed, config, str(checkpoint))
     methods = read_results(OUT)[task]
     low = float(np.mean([r["score"] for r in methods["random"]]))
@@ -199,7 +198,7 @@ def render_levels(found: dict[str, list[dict]]) -> list[str]:
         "## Levels",
         "",
         "Runs of a shipped learner held to a level, one JSON file per seed under "
-        "`results/levels/` (`python -m baselines.levels LEVEL LOG`, from a finished "
+        "`results/levels/` (`python -m baselines.benchmark.levels LEVEL LOG`, from a finished "
         "`baselines.ppo` run). What was tried on each open level and what blocks it: "
         "[Learning options for the open tasks](results.md#learning-options-for-the-open-tasks).",
     ]
