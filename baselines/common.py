@@ -312,3 +312,13 @@ def cpu_seconds() -> float:
         resource.getrusage(resource.RUSAGE_CHILDREN),
     )
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
+def calibration(rounds: int = 20) -> float:
+    """A fixed piece of work's rate (256 x 256 matrix products per CPU-second on this
+    thread): how fast the machine was while the figures were taken."""
+    a = torch.ones(256, 256)
+    start = time.thread_time()
+    for _ in range(rounds):
+        a = (a @ a).clamp_(max=1.0)
+    return rounds / (time.thread_time() - start)

@@ -48,6 +48,7 @@ import tyro
 
 from baselines.common import (
     RunLog,
+    calibration,
     cpu_seconds,
     default_csv,
     input_channels,
@@ -188,6 +189,7 @@ def main(args: Args) -> dict:
             "--overlap collects with feed-forward policies only (no --memory, --frames)"
         )
     setup_cpu, load_start = cpu_seconds(), os.getloadavg()
+    calibrated = calibration()  # before the run's CPU time starts: not counted in it
     seed_everything(args.seed)
     torch.set_num_threads(args.torch_threads)
     keep_freed_memory()
@@ -197,7 +199,7 @@ def main(args: Args) -> dict:
     start, cpu_start = time.perf_counter(), cpu_seconds()
     for iteration in range(1, run.iterations + 1):
         run.iterate(iteration, start)
-    return run.finish(start, cpu_start, cpu_start - setup_cpu, load_start)
+    return run.finish(start, cpu_start, cpu_start - setup_cpu, (load_start, calibrated))
 
 
 class Training:
@@ -332,9 +334,12 @@ class Training:
             },
         )
 
-    def finish(self, start: float, cpu_start: float, setup_cpu: float, load_start) -> dict:
+    def finish(self, start: float, cpu_start: float, setup_cpu: float, machine_start) -> dict:
         """The final checkpoint, the log closed with the run's summary (its JSON), which
-        is returned."""
+        is returned. ``machine_start``: the load average and the calibration (matrix
+        products per CPU-second, ``common.calibration``) at the start; both are taken
+        again at the end."""
+        load_start, calibrated = machine_start
         overlapped, global_step = self.overlapped, self.episodes.global_step
         if overlapped is not None:
             overlapped.wait()
@@ -348,6 +353,7 @@ class Training:
             "policy_lag": 1 if overlapped is not None else 0,
             "load_average_start": [round(x, 2) for x in load_start],
             "load_average_end": [round(x, 2) for x in os.getloadavg()],
+            "calibration_matmuls_per_second": [round(calibrated, 1), round(calibration(), 1)],
         }
         if self.stages:
             machine["curriculum"] = [

@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from baselines.benchmark.config import METHODS, SETTINGS, TIERS, load_config
 from baselines.benchmark.play import list_tasks
 from baselines.benchmark.records import OUT, RUNS
 from baselines.benchmark.runs import run
+from baselines.benchmark.settings import METHODS, SETTINGS, TIERS, load_config
 
 DESCRIPTION = (
     "The benchmark: random play, open-loop play, each task's scripted reference solver and "

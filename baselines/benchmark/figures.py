@@ -7,9 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.benchmark.config import BenchmarkConfig
 from baselines.benchmark.curves import draw_curves, task_curve
 from baselines.benchmark.records import read_results
+from baselines.benchmark.settings import BenchmarkConfig
 
 
 def draw(tier: dict, path: Path) -> None:

@@ -26,9 +26,9 @@ from typing import Literal
 
 import numpy as np
 
-from baselines.benchmark.config import ROOT, SETTINGS, load_config
 from baselines.benchmark.play import play_task
 from baselines.benchmark.records import OUT, read_results, write_record
+from baselines.benchmark.settings import ROOT, SETTINGS, load_config
 from flatland_ma.evaluation.stats import normalise
 from flatland_ma.policies.checkpoint import SUFFIX
 
@@ -107,6 +107,7 @@ def summarise(csv_path: Path, target: float | None = None) -> dict:
         "wall_seconds": run["wall_seconds"],
         "cpu_seconds": run.get("cpu_seconds"),
         "load_average": [run.get("load_average_start"), run.get("load_average_end")],
+        "calibration": run.get("calibration_matmuls_per_second"),
         "last_50": round(float(means[-1]), 6),
         "best_50": round(float(full.max()), 6),
     }
@@ -168,6 +169,7 @@ SHOWN = (
     "num_envs",
     "torch_threads",
     "overlap",
+    "use_depth",
     "memory",
     "frames",
     "team_reward",
@@ -188,6 +190,12 @@ def _options(options: dict) -> str:
     return ", ".join(shown) or "defaults"
 
 
+def _calibration(figures: list[float] | None) -> str:
+    """The machine's speed at the run's start and end (``baselines.common.calibration``:
+    256 x 256 matrix products per CPU-second), or "-" for a run that did not record it."""
+    return "-" if not figures else "-".join(f"{x:,.0f}" for x in figures)
+
+
 def _minutes(seconds: float | None) -> str:
     return "-" if seconds is None else f"{seconds / 60:.1f} min"
 
@@ -199,7 +207,10 @@ def render_levels(found: dict[str, list[dict]]) -> list[str]:
         "",
         "Runs of a shipped learner held to a level, one JSON file per seed under "
         "`results/levels/` (`python -m baselines.benchmark.levels LEVEL LOG`, from a finished "
-        "`baselines.ppo` run). What was tried on each open level and what blocks it: "
+        "`baselines.ppo` run). Load: the load average at the run's start and end. "
+        "Calibration: the machine's speed at the run's start and end, 256 x 256 matrix "
+        "products per CPU-second (runs before 2026-11-27 did not record it). "
+        "What was tried on each open level and what blocks it: "
         "[Learning options for the open tasks](results.md#learning-options-for-the-open-tasks).",
     ]
     for name, level in LEVELS.items():
@@ -214,33 +225,17 @@ def render_levels(found: dict[str, list[dict]]) -> list[str]:
             lines.append(f"{verdict}: no run recorded.")
             continue
         return_level = level.measure == "last_50"
-        header = "| runs | seed | options | agent-steps | wall | CPU | load | last 50 | best 50 |"
+        header = (
+            "| runs | seed | options | agent-steps | wall | CPU | load | calibration "
+            "| last 50 | best 50 |"
+        )
         header += (
             f" mean of 50 first >= {level.target:g} at |"
             if return_level
             else " held-out score | normalised |"
         )
         lines += [header + " met |", "|" + "---|" * header.count("|")]
-        for r in records:
-            load = "-".join(f"{x[0]:.1f}" for x in r["load_average"] if x) or "-"
-            cells = [
-                f"`{r['tag']}`",
-                str(r["seed"]),
-                _options(r["options"]),
-                f"{r['agent_steps']:,}",
-                _minutes(r["wall_seconds"]),
-                _minutes(r["cpu_seconds"]),
-                load,
-                f"{r['last_50']:.1f}",
-                f"{r['best_50']:.1f}",
-            ]
-            if return_level:
-                at = r["first_at_wall"]
-                cells.append("never" if at is None else f"{_minutes(at)} ({r['first_at_step']:,})")
-            else:
-                cells += [f"{r['held_out']:.2f}", f"{r['normalised']:.2f}"]
-            cells.append("yes" if r["met"] else "no")
-            lines.append("| " + " | ".join(cells) + " |")
+        lines += [_row(r, return_level) for r in records]
         runs = f"{len(records)} run" + ("s" if len(records) != 1 else "")
         lines += [
             "",
@@ -248,6 +243,30 @@ def render_levels(found: dict[str, list[dict]]) -> list[str]:
             f"one setting ({runs} recorded).",
         ]
     return lines
+
+
+def _row(r: dict, return_level: bool) -> str:
+    """One run's line of a level's table."""
+    load = "-".join(f"{x[0]:.1f}" for x in r["load_average"] if x) or "-"
+    cells = [
+        f"`{r['tag']}`",
+        str(r["seed"]),
+        _options(r["options"]),
+        f"{r['agent_steps']:,}",
+        _minutes(r["wall_seconds"]),
+        _minutes(r["cpu_seconds"]),
+        load,
+        _calibration(r.get("calibration")),
+        f"{r['last_50']:.1f}",
+        f"{r['best_50']:.1f}",
+    ]
+    if return_level:
+        at = r["first_at_wall"]
+        cells.append("never" if at is None else f"{_minutes(at)} ({r['first_at_step']:,})")
+    else:
+        cells += [f"{r['held_out']:.2f}", f"{r['normalised']:.2f}"]
+    cells.append("yes" if r["met"] else "no")
+    return "| " + " | ".join(cells) + " |"
 
 
 def main() -> None:

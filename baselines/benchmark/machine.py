@@ -7,10 +7,10 @@ import os
 import platform
 import resource
 import subprocess
-import time
 from importlib import metadata
 
-from baselines.benchmark.config import ROOT
+from baselines.benchmark.settings import ROOT
+from baselines.common import calibration
 
 
 def versions() -> dict[str, str]:
@@ -55,18 +55,6 @@ def cpu_seconds() -> float:
         resource.getrusage(resource.RUSAGE_CHILDREN),
     )
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
-
-
-def calibration(rounds: int = 20) -> float:
-    """A fixed piece of work's rate (256 x 256 matrix products per CPU-second on this
-    thread): how fast the machine was while the figures were taken."""
-    import torch  # here: flatland_ma is imported before torch (flatland_ma.sensors.threads)
-
-    a = torch.ones(256, 256)
-    start = time.thread_time()
-    for _ in range(rounds):
-        a = (a @ a).clamp_(max=1.0)
-    return rounds / (time.thread_time() - start)
 
 
 def calibrate() -> dict:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from baselines.benchmark.config import BenchmarkConfig
+from baselines.benchmark.settings import BenchmarkConfig
 from flatland_ma.envs.parallel import FlatlandParallelEnv
 from flatland_ma.policies.named import make_policy
 from flatland_ma.policies.rollout import play_episode

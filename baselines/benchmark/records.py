@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from baselines.benchmark.config import LEARNED, ROOT
+from baselines.benchmark.settings import LEARNED, ROOT
 
 OUT = ROOT / "results" / "benchmark"
 RUNS = ROOT / "runs" / "benchmark"

@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.benchmark.config import LEARNED
 from baselines.benchmark.curves import seed_curve
 from baselines.benchmark.machine import calibrate, commit, cpu_seconds, machine, versions
 from baselines.benchmark.play import play_open_loop_task, play_task, scripted_seeds
@@ -22,6 +21,7 @@ from baselines.benchmark.records import (
     tier_runs,
     write_record,
 )
+from baselines.benchmark.settings import LEARNED
 from baselines.benchmark.train import never_ending, ppo_possible, train_scenario, train_stream
 
 

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 
-from baselines.benchmark.config import LEARNED, METHODS, TIERS, BenchmarkConfig
 from baselines.benchmark.levels import read_levels
 from baselines.benchmark.play import list_tasks
 from baselines.benchmark.records import check_current, read_results
+from baselines.benchmark.settings import LEARNED, METHODS, TIERS, BenchmarkConfig
 from baselines.benchmark.train import ppo_possible
 from flatland_ma.evaluation.stats import normalise, stratified_bootstrap
 

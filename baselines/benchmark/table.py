@@ -25,11 +25,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from baselines.benchmark.config import ROOT, SETTINGS, load_config
 from baselines.benchmark.figures import curves, draw
 from baselines.benchmark.levels import LEVELS_OUT
 from baselines.benchmark.page import figure_path, render
 from baselines.benchmark.records import OUT
+from baselines.benchmark.settings import ROOT, SETTINGS, load_config
 from baselines.benchmark.summary import build, scenario_summary
 
 PAGE = ROOT / "docs" / "benchmark.md"

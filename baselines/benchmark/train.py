@@ -8,7 +8,7 @@ import csv
 import dataclasses
 from pathlib import Path
 
-from baselines.benchmark.config import TaskConfig, curriculum_path
+from baselines.benchmark.settings import TaskConfig, curriculum_path
 
 
 def train_scenario(name: str, seed: int, task: TaskConfig, runs: Path) -> tuple[str, int]:

@@ -15,11 +15,11 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("tyro")
 
-from baselines.benchmark.config import ROOT, SETTINGS, BenchmarkConfig, load_config  # noqa: E402
 from baselines.benchmark.levels import LEVELS_OUT, read_levels, record, render_levels  # noqa: E402
 from baselines.benchmark.page import render  # noqa: E402
 from baselines.benchmark.records import OUT, result_path, write_record  # noqa: E402
 from baselines.benchmark.runs import run  # noqa: E402
+from baselines.benchmark.settings import ROOT, SETTINGS, BenchmarkConfig, load_config  # noqa: E402
 from baselines.benchmark.summary import build, scenario_summary, verdict  # noqa: E402
 
 TASK = [("fruits_poisons", "scenario")]
@@ -351,7 +351,7 @@ def test_a_tier_with_a_task_list_trains_only_those(tmp_path):
 
 
 def test_a_preset_does_not_replace_the_budget(tmp_path):
-    from baselines.benchmark.config import TaskConfig
+    from baselines.benchmark.settings import TaskConfig
     from baselines.benchmark.train import ppo_args
 
     task = TaskConfig(budget=1_000_000, name="p", ppo={"preset": "fruits_poisons"})

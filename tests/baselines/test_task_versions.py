@@ -7,9 +7,9 @@ import gymnasium
 import pytest
 
 import flatland_ma
-from baselines.benchmark.config import SETTINGS, load_config
 from baselines.benchmark.records import VersionMismatch, check_current, read_results, task_versions
 from baselines.benchmark.runs import run
+from baselines.benchmark.settings import SETTINGS, load_config
 from flatland_ma.envs import registration
 from flatland_ma.envs.registration import gym_id, register_gym_ids
 from flatland_ma.scenario.errors import ScenarioError

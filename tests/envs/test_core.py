@@ -9,7 +9,7 @@ import numpy as np
 import flatland_ma
 from flatland_ma.envs.world_loop import WorldLoop
 
-PACKAGE = Path(__file__).resolve().parent.parent / "flatland_ma"
+PACKAGE = Path(__file__).resolve().parents[2] / "flatland_ma"
 
 
 def test_a_world_loops_stages_give_the_parallel_envs_step():
