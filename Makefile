@@ -6,7 +6,7 @@ STAMP := $(VENV)/.installed
 # The CPU build of torch; installed before the project so that its torch>=2.2 is already met.
 TORCH := torch==2.13.0
 
-.PHONY: demo test test-slow test-rllib test-clients soak bench bench-learn performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
+.PHONY: demo test test-slow test-newest-pymunk test-rllib test-clients soak bench bench-learn performance-page docs docs-site docs-check studio-assets studio-check reference lint clean reproduce reproduce-multi results benchmark benchmark-table
 
 # Two steps: the core (what `make demo` needs: the package and its own dependencies,
 # about 360 MB), then torch and every extra the tests use (about 2.4 GB in all).
@@ -40,6 +40,19 @@ test: $(STAMP)
 
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -n auto -m slow
+
+# The bridge to pymunk's internals (flatland_ma/world/physics.py) against the newest pymunk
+# release, beyond the pin of pyproject.toml, in an environment of its own: the tests marked
+# pymunk_bridge (the tiers, the structs read by offset, the recorded trajectories).
+NEWEST_PYMUNK := .venv-pymunk-newest
+test-newest-pymunk:
+	rm -rf $(NEWEST_PYMUNK)
+	$(PYTHON) -m venv $(NEWEST_PYMUNK)
+	$(NEWEST_PYMUNK)/bin/python -m pip install --quiet -e . pytest pytest-xdist hypothesis
+	$(NEWEST_PYMUNK)/bin/python -m pip install --quiet --upgrade --no-deps pymunk
+	$(NEWEST_PYMUNK)/bin/python -c "import pymunk; print('pymunk', pymunk.version)"
+	$(NEWEST_PYMUNK)/bin/python -m pytest -q -p no:cacheprovider -m pymunk_bridge \
+		tests/world/test_physics_bridge.py tests/test_trajectories.py
 
 # Ray RLlib in an environment of its own (ray pins gymnasium 1.2.2): baselines/rllib_ppo.py
 # for one iteration on a local Ray instance, and Gymnasium ids in a fresh process.
@@ -219,4 +232,4 @@ lint: $(STAMP)
 	$(BIN)/pyright
 
 clean:
-	rm -rf $(VENV) $(RLLIB) .venv-clients-* $(VMAS_VENV) demo .pytest_cache docs/_build docs/catalogue
+	rm -rf $(VENV) $(RLLIB) .venv-clients-* $(VMAS_VENV) $(NEWEST_PYMUNK) demo .pytest_cache docs/_build docs/catalogue

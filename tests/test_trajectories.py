@@ -11,6 +11,8 @@ from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from tests.trajectories import DATA, MAX_CYCLES, load, own_spaces, replay_batch, replay_single
 
+pytestmark = pytest.mark.pymunk_bridge
+
 SCENARIOS = flatland_ma.list_scenarios()
 
 

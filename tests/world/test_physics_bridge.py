@@ -18,6 +18,8 @@ from flatland_ma.world import physics, poses
 from flatland_ma.world.tier import Tier, chosen
 from tests.trajectories import MAX_CYCLES, load, own_spaces, replay_batch, replay_single
 
+pytestmark = pytest.mark.pymunk_bridge
+
 PACKAGE = Path(flatland_ma.__file__).parent
 INTERNALS = re.compile(r"_chipmunk|\bffi\b|\blib\.cp|\._space\b|\._body\b|pymunk\._")
 """What reaching past pymunk's documented API looks like in source."""
