@@ -18,7 +18,7 @@ episode bootstraps from the value of its last observation, which that mode retur
 
 Options beyond CleanRL's, each off by default: ``--preset NAME``, settings chosen for a
 task (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's
-summed reward, and ``--shaping W``, a potential-based term for delivery tasks
+summed reward, and ``--shaping W``, a potential-based term for delivery and goal tasks
 (``baselines.shaping``); ``--curriculum FILE``, the tasks of a stream file in turn
 (``baselines.curriculum``); ``--memory gru`` and ``--frames K``, a policy with memory
 (``baselines.ppo_memory``). The log always keeps each agent's own, unshaped return.
@@ -140,8 +140,12 @@ class Args:
     """Every agent learns from its team's reward, the sum of its world's rewards (the log
     keeps each agent's own return)."""
     shaping: float = 0.0
-    """Weight of the potential-based shaping term for delivery tasks
-    (``baselines.shaping.DeliveryPotential``); 0: none. The log keeps the scenario's return."""
+    """Weight of the potential-based shaping term (``baselines.shaping``); 0: none. The log
+    keeps the scenario's return."""
+    shaping_potential: Literal["auto", "delivery", "goal"] = "auto"
+    """What the shaping measures: "delivery", the object's way to its zone and the agent's
+    to the object; "goal", the agent's walking distance to the nearest zone that pays;
+    "auto", delivery where the scenario has deliveries, else goal."""
     curriculum: str = ""
     """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
     their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""

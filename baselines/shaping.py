@@ -11,6 +11,16 @@ potential-based shaping term. Neither changes what the run logs (the scenario's 
   reward, with Phi = 0 after the episode terminates. Shaping of this form leaves the
   optimal policies unchanged (Ng, Harada and Russell, "Policy invariance under reward
   transformations", 1999): over an episode it sums to -Phi(s_0), whatever the agents do.
+- ``GoalPotential``: for scenarios whose reward waits somewhere (``explore_goal``'s zone,
+  the goal of ``maze_goal`` and ``switch_door``, ``key_door``'s key, fruits), Phi(s) =
+  -d / 100, d the agent's walking distance to the nearest zone or item in view that pays:
+  the steps of the shortest path over the episode's navigation grid (a diagonal step counts
+  one; doors counted open) times the cell's width. It reads the worlds themselves (zones
+  and items are not in the global state), so it needs them in the learner's process (not
+  ``--shards``).
+
+``--shaping W`` picks the potential the scenario has (``--shaping-potential``: ``auto``,
+delivery first, then goal; or either by name).
 """
 
 from __future__ import annotations
@@ -18,6 +28,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from flatland_ma.world.entities import Item
+from flatland_ma.world.navigation import UNREACHED, NavGrid
 
 
 def team_rewards(reward: np.ndarray, agents_per_world: int) -> np.ndarray:
@@ -68,13 +81,91 @@ class DeliveryPotential:
         return out.reshape(-1)
 
 
+class GoalPotential:
+    """Phi per slot of a batched env (see the module's docstring): minus the walking
+    distance to the nearest thing that pays (a zone, or an item in view, with a positive
+    reward), over 100. The distances are worked out again whenever a world's episode or
+    the places of its paying things change (a breadth-first search over its navigation
+    grid). Raises ``ValueError`` for a scenario where nothing pays, or for worlds outside
+    this process."""
+
+    def __init__(self, env):
+        worlds = getattr(env, "worlds", None)
+        if worlds is None:
+            raise ValueError(
+                "goal shaping reads the worlds themselves: run them in the learner's process "
+                "(no --shards)"
+            )
+        spec = worlds[0].spec
+        if not any(thing.reward > 0 for thing in (*spec.zones, *spec.items)):
+            raise ValueError(
+                f"{spec.source}: no zone or item pays a reward (goal shaping walks to one)"
+            )
+        self.worlds = worlds
+        self.agents = env.agents_per_world
+        self._fields: list[tuple[tuple, np.ndarray, float] | None] = [None] * len(worlds)
+
+    def __call__(self, states: np.ndarray | None = None) -> np.ndarray:
+        """Phi of each slot (``states`` is not read: the worlds are)."""
+        out = np.empty((len(self.worlds), self.agents))
+        for w, loop in enumerate(self.worlds):
+            episode = loop.running
+            distances, cell = self._field(w, episode)
+            grid = episode.grid
+            for j, body in enumerate(episode.bodies):
+                x, y = body.body.position
+                out[w, j] = -distances[grid.cell_of(x, y)] * cell / 100.0
+        return out.reshape(-1)
+
+    def _field(self, w: int, episode) -> tuple[np.ndarray, float]:
+        """World ``w``'s distances in grid steps and the cell's width, kept while its
+        episode and its paying things stay where they were."""
+        rects = tuple(z.rect for z in episode.world.zones if z.reward > 0)
+        for item in episode.world.of_type(Item):
+            if item.visible and item.reward > 0:
+                (x, y), r = item.body.position, item.radius
+                rects += ((x - r, y - r, x + r, y + r),)
+        key = (id(episode), rects)
+        kept = self._fields[w]
+        if kept is None or kept[0] != key:
+            kept = (key, walking_steps(episode.grid, rects), episode.grid.cell)
+            self._fields[w] = kept
+        return kept[1], kept[2]
+
+
+def walking_steps(grid: NavGrid, rects) -> np.ndarray:
+    """Grid steps from every cell to the nearest of ``rects``, as floats: a blocked cell
+    (an agent pressed into a wall's clearance) takes its nearest free neighbour's steps
+    plus one, spread a few cells deep; anything still unreached the farthest reached
+    distance plus one."""
+    mask = np.zeros((grid.ny, grid.nx), np.bool_)
+    for rect in rects:
+        mask |= grid.cells_in(rect)
+    steps = grid.distances(mask).astype(np.float64)
+    steps[steps == UNREACHED] = np.inf
+    for _ in range(4):
+        padded = np.pad(steps, 1, constant_values=np.inf)
+        around = np.min(
+            [
+                padded[1 + di : 1 + di + grid.ny, 1 + dj : 1 + dj + grid.nx]
+                for di in (-1, 0, 1)
+                for dj in (-1, 0, 1)
+            ],
+            axis=0,
+        )
+        steps = np.minimum(steps, around + 1.0)
+    finite = np.isfinite(steps)
+    steps[~finite] = (steps[finite].max() + 1.0) if finite.any() else 0.0
+    return steps
+
+
 class Shaping:
     """The shaping term of each step, ``coef * (gamma Phi(s') - Phi(s))`` per slot, with
     Phi(s') = 0 where the slot's episode terminated. A world reset between two steps
     gives its slots a meaningless term on the step after the end; the learner leaves
     those steps out (their slots do not act)."""
 
-    def __init__(self, potential: DeliveryPotential, coef: float, gamma: float):
+    def __init__(self, potential, coef: float, gamma: float):
         self.potential, self.coef, self.gamma = potential, coef, gamma
         self.last: np.ndarray | None = None
 
@@ -101,7 +192,11 @@ def learning_reward(args, env):
     if not (args.team_reward or args.shaping):
         return None
     Shaping.check(args.shaping)
-    shaping = Shaping(DeliveryPotential(env), args.shaping, args.gamma) if args.shaping else None
+    shaping = (
+        Shaping(potential_of(env, args.shaping_potential), args.shaping, args.gamma)
+        if args.shaping
+        else None
+    )
     if shaping is not None:
         shaping.start(env)
     m = env.agents_per_world
@@ -111,3 +206,26 @@ def learning_reward(args, env):
         return out if shaping is None else out + shaping(env, terminated)
 
     return learn_from
+
+
+POTENTIALS = ("auto", "delivery", "goal")
+"""What ``--shaping-potential`` takes."""
+
+
+def potential_of(env, kind: str = "auto"):
+    """The shaping potential ``kind`` names for ``env``'s scenario; ``auto``: delivery
+    where a zone takes deliveries, else goal (each raises ``ValueError`` where it has
+    nothing to measure)."""
+    if kind == "delivery":
+        return DeliveryPotential(env)
+    if kind == "goal":
+        return GoalPotential(env)
+    if kind != "auto":
+        raise ValueError(f"shaping_potential must be one of {', '.join(POTENTIALS)}, not {kind!r}")
+    try:
+        return DeliveryPotential(env)
+    except ValueError as delivery:
+        try:
+            return GoalPotential(env)
+        except ValueError as goal:
+            raise ValueError(f"nothing to shape towards: {delivery}; {goal}") from None

@@ -174,10 +174,11 @@ SHOWN = (
     "frames",
     "team_reward",
     "shaping",
+    "shaping_potential",
     "curriculum",
 )
 """The run options the page names (beside the task's defaults)."""
-QUIET = {"memory": "none", "frames": 1}
+QUIET = {"memory": "none", "frames": 1, "shaping_potential": "auto"}
 """Values of those options that are their defaults, named on no page."""
 
 

@@ -14,6 +14,7 @@ from baselines.ppo import Args
 from baselines.ppo_presets import PRESETS, with_preset
 from baselines.shaping import DeliveryPotential, Shaping, learning_reward, team_rewards
 from flatland_ma.envs.vector import BatchedParallelEnv
+from flatland_ma.scenario.schema import ScenarioSpec
 from tests.module_runner import run_module
 
 
@@ -158,3 +159,72 @@ def test_the_shipped_curricula_load_and_end_on_their_task(path):
     assert len(stages) >= 2 and all(stage.steps > 0 for stage in stages)
     assert stages[-1].spec == flatland_ma.load_scenario(stages[-1].name)  # the task itself
     assert all(stage.spec != stages[-1].spec for stage in stages[:-1])  # easier first
+
+
+def _open_room(goal_at: float, wall: bool, reward: float = 10.0):
+    """A 300 x 200 room, the agent near (50, 50) facing +x, a 20 x 20 goal zone centred at
+    (``goal_at``, 50); with ``wall``, a wall across x = 150 but for a gap at the top."""
+    spec = {
+        "arena": {"size": [300, 200]},
+        "zones": [{"name": "goal", "rect": [goal_at - 10, 40, goal_at + 10, 60], "reward": reward}],
+        "agent": {"spawn": {"area": [20, 20, 80, 80], "heading": 0}},
+    }
+    if wall:
+        spec["walls"] = [{"start": [150, 0], "end": [150, 170]}]
+    return ScenarioSpec.model_validate(spec)
+
+
+def test_the_goal_potential_is_minus_the_walking_distance_to_the_zone():
+    from baselines.shaping import GoalPotential, potential_of
+
+    env = BatchedParallelEnv(_open_room(250, wall=False), num_worlds=1)
+    env.reset(seed=0)
+    potential = GoalPotential(env)
+    assert isinstance(potential_of(env), GoalPotential)  # auto: no deliveries, a goal
+    cell = env.worlds[0].running.grid.cell
+    body = env.worlds[0].running.bodies[0].body
+    body.position = (50, 50)
+    # In the open the way is straight: from x = 50 to the zone's near edge at x = 240.
+    assert potential()[0] == pytest.approx(-190 / 100, abs=1.5 * cell / 100)
+    walled = BatchedParallelEnv(_open_room(250, wall=True), num_worlds=1)
+    walled.reset(seed=0)
+    walled.worlds[0].running.bodies[0].body.position = (50, 50)
+    # Round the wall through the gap above it, where centres pass at y 180-190 and must keep
+    # 10 + 5 from the wall's middle. A diagonal grid step counts as one: 130 up to the gap
+    # (to x = 135, y = 180), 30 along it, 130 down to the zone's edge; 190 straight.
+    assert GoalPotential(walled)()[0] == pytest.approx(-290 / 100, abs=2 * cell / 100)
+    # Walking to the zone raises the potential, to 0 inside it.
+    before = potential()[0]
+    body.position = (150, 50)
+    assert before < potential()[0] < 0
+    body.position = (250, 50)
+    assert potential()[0] == 0.0
+    env.close()
+    walled.close()
+
+
+def test_goal_shaping_telescopes_and_refuses_scenarios_without_a_paying_zone():
+    from baselines.shaping import GoalPotential, potential_of
+
+    env = BatchedParallelEnv("explore_goal", num_worlds=2)
+    env.reset(seed=0)
+    potential = GoalPotential(env)
+    phi = [potential()]
+    shaping = Shaping(potential, coef=1.5, gamma=1.0)
+    shaping.start(env)
+    terms = []
+    for _, _, terminated, _, _ in _play(env, 30, 0):
+        terms.append(shaping(env, terminated))
+        phi.append(potential())
+    assert np.allclose(np.sum(terms, axis=0), 1.5 * (phi[-1] - phi[0]))
+    assert np.all(phi[0] < 0) and np.any(np.sum(terms, axis=0) != 0.0)
+    env.close()
+    plain = BatchedParallelEnv(_open_room(250, wall=False, reward=0.0), num_worlds=1)
+    plain.reset(seed=0)
+    with pytest.raises(ValueError, match="no zone or item pays a reward"):
+        GoalPotential(plain)
+    with pytest.raises(ValueError, match="nothing to shape towards"):
+        potential_of(plain)
+    with pytest.raises(ValueError, match="shaping_potential must be one of"):
+        potential_of(plain, "nearest")
+    plain.close()
