@@ -1,0 +1,24 @@
+"""``baselines.benchmark.reach``: where in an episode a task first pays, by play."""
+
+from __future__ import annotations
+
+from baselines.benchmark.reach import Reach, reach, table
+
+
+def test_a_terminal_goal_pays_on_the_episodes_last_step():
+    # switch_door's goal ends the episode: the solver's first payment is its last step,
+    # within the step limit, and the share of the limit is that step over it.
+    played = reach("switch_door", "scripted", [100000])
+    assert played.paid == 1 and played.limit == 500
+    assert played.first_steps == played.lengths
+    assert 0 < played.first_steps[0] < played.limit
+    assert played.median_share == played.first_steps[0] / played.limit
+    assert played.scores[0] >= 10
+
+
+def test_the_table_says_how_often_and_how_early_each_method_is_paid():
+    never = Reach(4, 0, [None] * 4, [500] * 4, [0.0] * 4, 500)
+    early = Reach(4, 3, [50, None, 100, 150], [500] * 4, [10.0] * 4, 500)
+    assert never.median_first is None and early.median_first == 100
+    row = table({"task": {"random": vars(never), "scripted": vars(early)}}).splitlines()[-1]
+    assert row == "| `task` | 500 | 0 of 4 | - | 3 of 4 | step 100 (20% of it) |"
