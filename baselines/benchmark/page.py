@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 
 from baselines.benchmark.levels import render_levels
+from baselines.benchmark.reach import table as reach_table
 from baselines.benchmark.summary import VERDICTS
 from baselines.benchmark.tables import (
     figure_text,
@@ -193,7 +194,31 @@ def render(summary: dict) -> str:
         lines += tier_section(tier, summary)
     if summary.get("levels") is not None:
         lines += [*render_levels(summary["levels"]), ""]
+    if summary.get("reach"):
+        lines += reach_section(summary["reach"])
     return "\n".join([*lines, *provenance(summary)])
+
+
+def reach_section(results: dict) -> list[str]:
+    """Where each task first pays within an episode, by play (``baselines.benchmark.reach``)."""
+    blocked = sorted(n for n, r in results.items() if r["random"]["paid"] == 0)
+    return [
+        "## Where the reward lies",
+        "",
+        "Before any training: how often random play and the scripted solver are paid at "
+        "all in the held-out episodes, and the median step of the first payment (with its "
+        "share of the step limit). A task random play is never paid in leaves an on-policy "
+        "learner from scratch nothing to learn from until it finds the reward by chance: "
+        "exploration is then what blocks it, not the budget. `python -m "
+        "baselines.benchmark.reach` (results in `results/reach.json`).",
+        "",
+        reach_table(results),
+        "",
+        f"Random play is never paid in {len(blocked)} of {len(results)} scenarios: "
+        + ", ".join(f"`{n}`" for n in blocked)
+        + ".",
+        "",
+    ]
 
 
 def page_head() -> list[str]:

@@ -22,3 +22,19 @@ def test_the_table_says_how_often_and_how_early_each_method_is_paid():
     assert never.median_first is None and early.median_first == 100
     row = table({"task": {"random": vars(never), "scripted": vars(early)}}).splitlines()[-1]
     assert row == "| `task` | 500 | 0 of 4 | - | 3 of 4 | step 100 (20% of it) |"
+
+
+def test_the_benchmark_page_names_the_tasks_random_play_is_never_paid_in():
+    from baselines.benchmark.page import reach_section
+
+    never = vars(Reach(2, 0, [None, None], [500, 500], [0.0, 0.0], 500))
+    paid = vars(Reach(2, 1, [40, None], [40, 500], [10.0, 0.0], 500))
+    lines = reach_section(
+        {"hard": {"random": never, "scripted": paid}, "easy": {"random": paid, "scripted": paid}}
+    )
+    assert lines[0] == "## Where the reward lies"
+    assert "Random play is never paid in 1 of 2 scenarios: `hard`." in lines
+    assert (
+        "| `easy` | 500 | 1 of 2 | step 40 (8% of it) | 1 of 2 | step 40 (8% of it) |"
+        in "\n".join(lines)
+    )
