@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import statistics
 from pathlib import Path
 
 from pages import (
@@ -28,6 +29,8 @@ from flatland_ma.scenario.schema import ScenarioSpec
 DOCS = Path(__file__).resolve().parent.parent
 BENCHMARK = DOCS.parent / "results" / "benchmark" / "summary.json"
 """Each task's benchmark figures, written by ``make benchmark-table``."""
+REACH = DOCS.parent / "results" / "reach.json"
+"""Where each scenario first pays, by play (``python -m baselines.benchmark.reach``)."""
 EXAMPLE_SPEED = 150
 """The ``agent.max_speed`` of every page's override example (valid in every scenario)."""
 
@@ -62,6 +65,7 @@ def scenario_page(name: str, page_dir: Path, images: Path) -> str:
             "",
         ]
     parts += benchmark_section(name, page_dir)
+    parts += reach_section(name, page_dir)
     parts += curve_section(name, page_dir)
     parts += _overrides(name, spec)
     parts += ["## The file", "", literal_file(path, page_dir), ""]
@@ -101,6 +105,45 @@ def benchmark_section(name: str, page_dir: Path) -> list[str]:
         "",
     ]
     return out
+
+
+def reach_section(name: str, page_dir: Path) -> list[str]:
+    """How often random and scripted play are paid in an episode, and how early, if
+    measured."""
+    if not REACH.is_file():
+        return []
+    row = json.loads(REACH.read_text(encoding="utf-8")).get(name)
+    if row is None:
+        return []
+
+    def said(method: str) -> str:
+        r = row[method]
+        firsts = sorted(s for s in r["first_steps"] if s is not None)
+        if not firsts:
+            return f"in none of its {r['episodes']} episodes"
+        median = statistics.median(firsts)
+        return f"in {r['paid']} of {r['episodes']} episodes, first at step {median:g} (median)"
+
+    page = os.path.relpath(DOCS / "benchmark.md", page_dir)
+    text = (
+        f"Before any training, on the benchmark's held-out episodes (step limit "
+        f"{row['random']['limit']}): random play is paid {said('random')}; the scripted "
+        f"solver {said('scripted')}."
+    )
+    if row["random"]["paid"] == 0:
+        text += (
+            " Random play never finds the reward here, so an on-policy learner starting from "
+            "it has nothing to learn from until it does: exploration blocks it before the "
+            "budget does."
+        )
+    return [
+        "### Where the reward lies",
+        "",
+        text,
+        "",
+        f'More on [the benchmark page]({page}), section "Where the reward lies".',
+        "",
+    ]
 
 
 def curve_section(name: str, page_dir: Path) -> list[str]:
