@@ -13,9 +13,11 @@ potential-based shaping term. Neither changes what the run logs (the scenario's 
   transformations", 1999): over an episode it sums to -Phi(s_0), whatever the agents do.
 - ``GoalPotential``: for scenarios whose reward waits somewhere (``explore_goal``'s zone,
   the goal of ``maze_goal`` and ``switch_door``, ``key_door``'s key, fruits), Phi(s) =
-  -d / 100, d the agent's walking distance to the nearest zone or item in view that pays:
-  the steps of the shortest path over the episode's navigation grid (a diagonal step counts
-  one; doors counted open) times the cell's width. It reads the worlds themselves (zones
+  -d / 100, d the agent's walking distance to its nearest target: a zone or an item in
+  view that pays, or the switch of a door still shut; round the doors in its way (locked
+  without its key, shut until switched), as the scripted planner goes. The distance is the
+  steps of the shortest path over the episode's navigation grid (a diagonal step counts
+  one) times the cell's width. It reads the worlds themselves (zones
   and items are not in the global state), so it needs them in the learner's process (not
   ``--shards``).
 
@@ -83,11 +85,13 @@ class DeliveryPotential:
 
 class GoalPotential:
     """Phi per slot of a batched env (see the module's docstring): minus the walking
-    distance to the nearest thing that pays (a zone, or an item in view, with a positive
-    reward), over 100. The distances are worked out again whenever a world's episode or
-    the places of its paying things change (a breadth-first search over its navigation
-    grid). Raises ``ValueError`` for a scenario where nothing pays, or for worlds outside
-    this process."""
+    distance to the agent's next target, over 100. The targets are the zones and the items
+    in view that pay, and the switch zones of doors still shut; the way goes round the
+    doors that stop this agent (locked without its key, or shut until a switch opens them),
+    as the scripted planner plans. The distances are worked out again whenever a world's
+    episode, the places of its paying things or the doors in an agent's way change (a
+    breadth-first search over the episode's navigation grid). Raises ``ValueError`` for a
+    scenario where nothing pays, or for worlds outside this process."""
 
     def __init__(self, env):
         worlds = getattr(env, "worlds", None)
@@ -103,34 +107,55 @@ class GoalPotential:
             )
         self.worlds = worlds
         self.agents = env.agents_per_world
-        self._fields: list[tuple[tuple, np.ndarray, float] | None] = [None] * len(worlds)
+        self._fields: list[dict] = [{} for _ in worlds]
+        """Each world's distances, by what they depend on (cleared with a new episode or
+        new places of its paying things)."""
+        self._places: list[tuple | None] = [None] * len(worlds)
 
     def __call__(self, states: np.ndarray | None = None) -> np.ndarray:
         """Phi of each slot (``states`` is not read: the worlds are)."""
         out = np.empty((len(self.worlds), self.agents))
         for w, loop in enumerate(self.worlds):
             episode = loop.running
-            distances, cell = self._field(w, episode)
+            rects = self._targets(w, episode)
             grid = episode.grid
             for j, body in enumerate(episode.bodies):
+                distances = self._field(w, episode, rects, j)
                 x, y = body.body.position
-                out[w, j] = -distances[grid.cell_of(x, y)] * cell / 100.0
+                out[w, j] = -distances[grid.cell_of(x, y)] * grid.cell / 100.0
         return out.reshape(-1)
 
-    def _field(self, w: int, episode) -> tuple[np.ndarray, float]:
-        """World ``w``'s distances in grid steps and the cell's width, kept while its
-        episode and its paying things stay where they were."""
+    def _targets(self, w: int, episode) -> tuple:
+        """The rectangles of world ``w``'s paying zones and items (its cache cleared when
+        they, or the episode, changed)."""
         rects = tuple(z.rect for z in episode.world.zones if z.reward > 0)
         for item in episode.world.of_type(Item):
             if item.visible and item.reward > 0:
                 (x, y), r = item.body.position, item.radius
                 rects += ((x - r, y - r, x + r, y + r),)
-        key = (id(episode), rects)
-        kept = self._fields[w]
-        if kept is None or kept[0] != key:
-            kept = (key, walking_steps(episode.grid, rects), episode.grid.cell)
-            self._fields[w] = kept
-        return kept[1], kept[2]
+        places = (id(episode), rects)
+        if self._places[w] != places:
+            self._places[w] = places
+            self._fields[w].clear()
+        return rects
+
+    def _field(self, w: int, episode, rects: tuple, j: int) -> np.ndarray:
+        """Agent ``j``'s distances in grid steps: round the doors in its way, to the paying
+        things and the switches of shut doors."""
+        keys = episode.task.records[j].keys
+        closed = tuple(d.index for d in episode.doors if d.blocks(keys))
+        switches = {d.switch for d in episode.doors if d.switch and not d.is_open}
+        targets = rects + tuple(z.rect for z in episode.world.zones if z.name in switches)
+        fields = self._fields[w]
+        if (closed, targets) not in fields:
+            grid = episode.grid
+            if closed:
+                grid = grid.copy()
+                for door in episode.doors:
+                    if door.index in closed:
+                        grid.block_shape(door.shapes[0])
+            fields[(closed, targets)] = walking_steps(grid, targets)
+        return fields[(closed, targets)]
 
 
 def walking_steps(grid: NavGrid, rects) -> np.ndarray:

@@ -4,6 +4,7 @@ shaping, and the CPU time a run's summary records."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -228,3 +229,24 @@ def test_goal_shaping_telescopes_and_refuses_scenarios_without_a_paying_zone():
     with pytest.raises(ValueError, match="shaping_potential must be one of"):
         potential_of(plain, "nearest")
     plain.close()
+
+
+def test_the_goal_potential_leads_to_the_switch_while_the_door_is_shut():
+    from baselines.shaping import GoalPotential
+
+    env = BatchedParallelEnv("switch_door", num_worlds=1)
+    env.reset(seed=0)
+    episode = env.worlds[0].running
+    potential = GoalPotential(env)
+    plate = next(z for z in episode.world.zones if z.name == "plate")
+    body = episode.bodies[0].body
+    body.position = plate.centre
+    # Shut: the goal lies behind the door, the plate is the target, and the agent is on it.
+    assert potential()[0] == 0.0
+    door = episode.doors[0]
+    door.is_open = True
+    # Open: the plate is no target any more; the goal (x = 340) is through the doorway.
+    opened = potential()[0]
+    assert opened < 0.0
+    assert opened >= -(math.dist(plate.centre, (250, 125)) + 90 + 40) / 100
+    env.close()
