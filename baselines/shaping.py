@@ -17,9 +17,12 @@ potential-based shaping term. Neither changes what the run logs (the scenario's 
   view that pays, or the switch of a door still shut; round the doors in its way (locked
   without its key, shut until switched), as the scripted planner goes. The distance is the
   steps of the shortest path over the episode's navigation grid (a diagonal step counts
-  one) times the cell's width. It reads the worlds themselves (zones
-  and items are not in the global state), so it needs them in the learner's process (not
-  ``--shards``).
+  one) times the cell's width. Phi jumps when a target is used up (the key taken, the next
+  target the goal beyond the door), and the agent is charged the jump at once: where the
+  jump can exceed the target's reward (``key_door``, ``switch_door``), the agent learns to
+  leave the target alone (docs/results.md); use it where targets pay more, or weigh it
+  less. It reads the worlds themselves (zones and items are not in the global state), so
+  it needs them in the learner's process (not ``--shards``).
 
 ``--shaping W`` picks the potential the scenario has (``--shaping-potential``: ``auto``,
 delivery first, then goal; or either by name).

@@ -207,10 +207,11 @@ def reach_section(results: dict) -> list[str]:
         "",
         "Before any training: how often random play and the scripted solver are paid at "
         "all in the held-out episodes, and the median step of the first payment (with its "
-        "share of the step limit). A task random play is never paid in leaves an on-policy "
-        "learner from scratch nothing to learn from until it finds the reward by chance: "
-        "exploration is then what blocks it, not the budget. `python -m "
-        "baselines.benchmark.reach` (results in `results/reach.json`).",
+        "share of the step limit). Where random play is never paid, a learner starting from "
+        "it must find the reward by exploring before it can learn anything: some do (PPO "
+        "solves `key_door` at 1M agent-steps), so this says where exploration has to work, "
+        "not that it fails. `python -m baselines.benchmark.reach` (results in "
+        "`results/reach.json`).",
         "",
         reach_table(results),
         "",

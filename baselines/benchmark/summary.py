@@ -13,6 +13,7 @@ import numpy as np
 
 from baselines.benchmark.levels import read_levels
 from baselines.benchmark.play import list_tasks
+from baselines.benchmark.reach import REACH
 from baselines.benchmark.records import check_current, read_results
 from baselines.benchmark.settings import LEARNED, METHODS, TIERS, BenchmarkConfig
 from baselines.benchmark.train import ppo_possible
@@ -145,9 +146,15 @@ def build_tier(results: dict, config: BenchmarkConfig, tier: str, tasks) -> dict
     }
 
 
+def read_reach(path: Path) -> dict | None:
+    """Where each task's reward lies (``baselines.benchmark.reach``), if measured."""
+    return json.loads(path.read_text(encoding="utf-8")) if path.exists() else None
+
+
 def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None = None) -> dict:
     """Every tier's rows and aggregate over tasks, from the JSON under ``root`` (and the
-    level runs under ``levels``, if given)."""
+    level runs under ``levels``, if given; and where each task's reward lies, from
+    ``reach.json`` beside ``root``, if there)."""
     tasks = tasks or list_tasks()
     tiers, records = {}, []
     for tier in TIERS:
@@ -175,6 +182,7 @@ def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None =
         "episodes": config.episodes,
         "open_loop": config.open_loop.model_dump(),
         "levels": read_levels(levels) if levels is not None else None,
+        "reach": read_reach(root.parent / REACH.name),
     }
 
 

@@ -28,7 +28,6 @@ from pathlib import Path
 from baselines.benchmark.figures import curves, draw
 from baselines.benchmark.levels import LEVELS_OUT
 from baselines.benchmark.page import figure_path, render
-from baselines.benchmark.reach import REACH
 from baselines.benchmark.records import OUT
 from baselines.benchmark.settings import ROOT, SETTINGS, load_config
 from baselines.benchmark.summary import build, scenario_summary
@@ -48,8 +47,6 @@ def write(
     JSON under ``root``."""
     config = load_config(config_path)
     summary = build(root, config, levels=levels)
-    reach = root.parent / REACH.name
-    summary["reach"] = json.loads(reach.read_text()) if reach.exists() else None
     docs.mkdir(parents=True, exist_ok=True)
     (docs / "benchmark.md").write_text(render(summary), encoding="utf-8")
     for tier in summary["tiers"].values():

@@ -132,9 +132,8 @@ def reach_section(name: str, page_dir: Path) -> list[str]:
     )
     if row["random"]["paid"] == 0:
         text += (
-            " Random play never finds the reward here, so an on-policy learner starting from "
-            "it has nothing to learn from until it does: exploration blocks it before the "
-            "budget does."
+            " Random play never finds the reward here, so a learner starting from it must "
+            "find the reward by exploring before it can learn anything."
         )
     return [
         "### Where the reward lies",
