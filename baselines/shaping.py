@@ -34,6 +34,7 @@ import math
 
 import numpy as np
 
+from flatland_ma.policies.planner import round_doors
 from flatland_ma.world.entities import Item
 from flatland_ma.world.navigation import UNREACHED, NavGrid
 
@@ -151,12 +152,7 @@ class GoalPotential:
         targets = rects + tuple(z.rect for z in episode.world.zones if z.name in switches)
         fields = self._fields[w]
         if (closed, targets) not in fields:
-            grid = episode.grid
-            if closed:
-                grid = grid.copy()
-                for door in episode.doors:
-                    if door.index in closed:
-                        grid.block_shape(door.shapes[0])
+            grid = round_doors(episode.grid, episode.doors, keys)
             fields[(closed, targets)] = walking_steps(grid, targets)
         return fields[(closed, targets)]
 

@@ -103,11 +103,8 @@ class PlannerPolicy:
         self._last = pose
 
     def _planning_grid(self, episode, avoid: bool):
-        grid = episode.grid_for(self.radius).copy()
-        record = episode.task.records[self.index]
-        for door in episode.doors:
-            if door.blocks(record.keys):  # e.g. locked, or a hinged one swung aside
-                grid.block_shape(door.shapes[0])
+        keys = episode.task.records[self.index].keys
+        grid = round_doors(episode.grid_for(self.radius), episode.doors, keys)
         if not avoid:
             return grid
         for item in episode.world.of_type(Item):
@@ -163,6 +160,16 @@ class PlannerPolicy:
         if not group.key or group.name in record.keys:
             return False
         return any(d.gate_key == group.name and not d.is_open for d in episode.doors)
+
+
+def round_doors(grid, doors, keys: set[str]):
+    """A copy of ``grid`` with the doors that stop an agent holding ``keys`` blocked
+    (e.g. locked, or a hinged one swung aside)."""
+    grid = grid.copy()
+    for door in doors:
+        if door.blocks(keys):
+            grid.block_shape(door.shapes[0])
+    return grid
 
 
 def _free_around(grid, cell, cells: int = 2) -> None:
