@@ -144,8 +144,13 @@ class Args:
     keeps the scenario's return."""
     shaping_potential: Literal["auto", "delivery", "goal"] = "auto"
     """What the shaping measures: "delivery", the object's way to its zone and the agent's
-    to the object; "goal", the agent's walking distance to the nearest zone that pays;
+    to the object; "goal", the whole way the agent still has to walk to a paying thing;
     "auto", delivery where the scenario has deliveries, else goal."""
+    shaping_gamma: float = -1.0
+    """The shaping term's discount, ``W (shaping_gamma Phi(s') - Phi(s))``: below 0, the
+    learner's ``gamma`` (the optimal policies stay as they were); 1, the plain progress
+    towards the target each step, without the bonus ``(1 - gamma) |Phi|`` a step that the
+    learner's gamma pays for being far away."""
     curriculum: str = ""
     """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
     their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""

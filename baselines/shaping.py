@@ -12,17 +12,19 @@ potential-based shaping term. Neither changes what the run logs (the scenario's 
   optimal policies unchanged (Ng, Harada and Russell, "Policy invariance under reward
   transformations", 1999): over an episode it sums to -Phi(s_0), whatever the agents do.
 - ``GoalPotential``: for scenarios whose reward waits somewhere (``explore_goal``'s zone,
-  the goal of ``maze_goal`` and ``switch_door``, ``key_door``'s key, fruits), Phi(s) =
-  -d / 100, d the agent's walking distance to its nearest target: a zone or an item in
-  view that pays, or the switch of a door still shut; round the doors in its way (locked
-  without its key, shut until switched), as the scripted planner goes. The distance is the
-  steps of the shortest path over the episode's navigation grid (a diagonal step counts
-  one) times the cell's width. Phi jumps when a target is used up (the key taken, the next
-  target the goal beyond the door), and the agent is charged the jump at once: where the
-  jump can exceed the target's reward (``key_door``, ``switch_door``), the agent learns to
-  leave the target alone (docs/results.md); use it where targets pay more, or weigh it
-  less. It reads the worlds themselves (zones and items are not in the global state), so
-  it needs them in the learner's process (not ``--shards``).
+  the goal of ``maze_goal``, ``key_door`` and ``switch_door``, fruits), Phi(s) = -d / 100,
+  d the whole way the agent still has to walk to a paying thing: straight there, or, where
+  a door is shut to it (locked without its key, shut until its switch is stepped on), by
+  way of what opens it (the key, the switch; a key object: to it, then carrying it to the
+  door) and on through the open door, whichever is shorter. The keys of shut doors are on
+  the way, not ends of it, so Phi does not jump when the key is taken or the switch
+  stepped on: the agent at the key is as far from the goal before it takes the key as
+  after. A way is counted in steps of the shortest path over the episode's navigation grid
+  (a diagonal step counts one) times the cell's width. Phi still jumps where a paying
+  thing is used up and the next lies elsewhere (a fruit eaten, ``explore_goal``'s
+  teleport): by at most the walk to the next, against the thing's reward. It reads the
+  worlds themselves (zones and items are not in the global state), so it needs them in the
+  learner's process (not ``--shards``).
 
 ``--shaping W`` picks the potential the scenario has (``--shaping-potential``: ``auto``,
 delivery first, then goal; or either by name).
@@ -34,8 +36,7 @@ import math
 
 import numpy as np
 
-from flatland_ma.policies.planner import round_doors
-from flatland_ma.world.entities import Item
+from flatland_ma.world.entities import Item, Obstacle
 from flatland_ma.world.navigation import UNREACHED, NavGrid
 
 
@@ -88,14 +89,15 @@ class DeliveryPotential:
 
 
 class GoalPotential:
-    """Phi per slot of a batched env (see the module's docstring): minus the walking
-    distance to the agent's next target, over 100. The targets are the zones and the items
-    in view that pay, and the switch zones of doors still shut; the way goes round the
-    doors that stop this agent (locked without its key, or shut until a switch opens them),
-    as the scripted planner plans. The distances are worked out again whenever a world's
-    episode, the places of its paying things or the doors in an agent's way change (a
-    breadth-first search over the episode's navigation grid). Raises ``ValueError`` for a
-    scenario where nothing pays, or for worlds outside this process."""
+    """Phi per slot of a batched env (see the module's docstring): minus the whole way the
+    agent still has to walk to a paying thing, over 100. The paying things are the zones
+    and the items that pay, less the keys of doors still shut to it; where a door in its
+    way is shut (locked without its key, or shut until a switch opens it), the way may go
+    by what opens it (the key, the switch) and on from there through the open door. The
+    fields are worked out again whenever a world's episode, the places of its paying
+    things and keys, or the doors shut to an agent change (breadth-first searches over the
+    episode's navigation grid). Raises ``ValueError`` for a scenario where nothing pays,
+    or for worlds outside this process."""
 
     def __init__(self, env):
         worlds = getattr(env, "worlds", None)
@@ -112,8 +114,8 @@ class GoalPotential:
         self.worlds = worlds
         self.agents = env.agents_per_world
         self._fields: list[dict] = [{} for _ in worlds]
-        """Each world's distances, by what they depend on (cleared with a new episode or
-        new places of its paying things)."""
+        """Each world's fields, by the doors shut to an agent (cleared with a new episode
+        or new places of its paying things and keys)."""
         self._places: list[tuple | None] = [None] * len(worlds)
 
     def __call__(self, states: np.ndarray | None = None) -> np.ndarray:
@@ -121,57 +123,117 @@ class GoalPotential:
         out = np.empty((len(self.worlds), self.agents))
         for w, loop in enumerate(self.worlds):
             episode = loop.running
-            rects = self._targets(w, episode)
-            grid = episode.grid
+            things = self._things(w, episode)
+            carried = [(o.key, o.body.position) for o in episode.world.of_type(Obstacle) if o.key]
             for j, body in enumerate(episode.bodies):
-                distances = self._field(w, episode, rects, j)
-                x, y = body.body.position
-                out[w, j] = -distances[grid.cell_of(x, y)] * grid.cell / 100.0
+                keys = episode.task.records[j].keys
+                shut = frozenset(d.index for d in episode.doors if d.blocks(keys))
+                fields = self._fields[w]
+                if shut not in fields:
+                    fields[shut] = spread(self._way(episode, things, shut), fill=False)
+                here = body.body.position
+                steps = fields[shut][episode.grid.cell_of(*here)]
+                for door in episode.doors:
+                    for key, there in carried:
+                        if door.index in shut and key == door.gate_key:
+                            walk = math.dist(here, there) / episode.grid.cell
+                            carry = self._carry(w, episode, things, shut, door)
+                            steps = min(steps, walk + carry[episode.grid.cell_of(*there)])
+                if not math.isfinite(steps):  # nothing reachable: as far as the farthest
+                    finite = fields[shut][np.isfinite(fields[shut])]
+                    steps = finite.max() + 1.0 if finite.size else 0.0
+                out[w, j] = -steps * episode.grid.cell / 100.0
         return out.reshape(-1)
 
-    def _targets(self, w: int, episode) -> tuple:
-        """The rectangles of world ``w``'s paying zones and items (its cache cleared when
-        they, or the episode, changed)."""
-        rects = tuple(z.rect for z in episode.world.zones if z.reward > 0)
+    def _carry(self, w: int, episode, things: tuple, shut: frozenset, door) -> np.ndarray:
+        """Grid steps from every cell to a paying thing by way of ``door``, for a key object
+        there: carried to the door (until it touches it) and on through the open door."""
+        fields = self._fields[w]
+        if (shut, door.index) not in fields:
+            grid = self._shut_grid(episode, shut)
+            after = self._way(episode, things, shut - {door.index})
+            near = grid.shape_mask(door.shapes[0], extra=2 * grid.cell) & ~grid.blocked
+            start = np.where(near, after, UNREACHED).astype(np.int32)
+            fields[(shut, door.index)] = spread(grid.distances_from(start), fill=False)
+        return fields[(shut, door.index)]
+
+    @staticmethod
+    def _shut_grid(episode, shut: frozenset):
+        grid = episode.grid.copy()
+        for door in episode.doors:
+            if door.index in shut:
+                grid.block_shape(door.shapes[0])
+        return grid
+
+    def _things(self, w: int, episode) -> tuple:
+        """World ``w``'s paying zones and items and its key items, as ``(rect, pays, key)``
+        (``key``: the door key the item is, or None); the fields' cache is cleared when
+        they, or the episode, changed."""
+        things = tuple((z.rect, z.reward > 0, None) for z in episode.world.zones)
         for item in episode.world.of_type(Item):
-            if item.visible and item.reward > 0:
+            if item.visible and (item.reward > 0 or item.group.key):
                 (x, y), r = item.body.position, item.radius
-                rects += ((x - r, y - r, x + r, y + r),)
-        places = (id(episode), rects)
+                key = item.group.name if item.group.key else None
+                things += (((x - r, y - r, x + r, y + r), item.reward > 0, key),)
+        places = (id(episode), things)
         if self._places[w] != places:
             self._places[w] = places
             self._fields[w].clear()
-        return rects
+        return things
 
-    def _field(self, w: int, episode, rects: tuple, j: int) -> np.ndarray:
-        """Agent ``j``'s distances in grid steps: round the doors in its way, to the paying
-        things and the switches of shut doors."""
-        keys = episode.task.records[j].keys
-        closed = tuple(d.index for d in episode.doors if d.blocks(keys))
-        switches = {d.switch for d in episode.doors if d.switch and not d.is_open}
-        targets = rects + tuple(z.rect for z in episode.world.zones if z.name in switches)
-        fields = self._fields[w]
-        if (closed, targets) not in fields:
-            grid = round_doors(episode.grid, episode.doors, keys)
-            fields[(closed, targets)] = walking_steps(grid, targets)
-        return fields[(closed, targets)]
+    def _way(self, episode, things: tuple, shut: frozenset) -> np.ndarray:
+        """Grid steps from every cell to a paying thing with the doors ``shut`` shut: the
+        least of walking straight there and of walking to what opens a shut door (its key,
+        its switch) and on from there as though it were open (and its key taken)."""
+        grid = self._shut_grid(episode, shut)
+        openers = {d.gate_key for d in episode.doors if d.index in shut and d.gate_key}
+        mask = np.zeros_like(grid.blocked)
+        for rect, pays, key in things:
+            if pays and key not in openers:
+                mask |= grid.cells_in(rect)
+        best = grid.distances(mask)
+        zones = {z.name: z.rect for z in episode.world.zones}
+        for door in episode.doors:
+            if door.index not in shut:
+                continue
+            rects = [rect for rect, _, key in things if key is not None and key == door.gate_key]
+            if door.switch in zones:
+                rects.append(zones[door.switch])
+            if not rects:
+                continue
+            opener = np.zeros_like(grid.blocked)
+            for rect in rects:
+                opener |= grid.cells_in(rect)
+            taken = tuple(
+                thing for thing in things if thing[2] is None or thing[2] != door.gate_key
+            )
+            after = self._way(episode, taken, shut - {door.index})
+            start = np.where(opener, after, UNREACHED).astype(np.int32)
+            best = np.minimum(best, grid.distances_from(start))
+        return best
 
 
 def walking_steps(grid: NavGrid, rects) -> np.ndarray:
-    """Grid steps from every cell to the nearest of ``rects``, as floats: a blocked cell
-    (an agent pressed into a wall's clearance) takes its nearest free neighbour's steps
-    plus one, spread a few cells deep; anything still unreached the farthest reached
-    distance plus one."""
+    """Grid steps from every cell to the nearest of ``rects``, as floats (``spread``)."""
     mask = np.zeros((grid.ny, grid.nx), np.bool_)
     for rect in rects:
         mask |= grid.cells_in(rect)
-    steps = grid.distances(mask).astype(np.float64)
-    steps[steps == UNREACHED] = np.inf
+    return spread(grid.distances(mask))
+
+
+def spread(distances: np.ndarray, fill: bool = True) -> np.ndarray:
+    """Grid steps as floats where a blocked or unreached cell has none: a blocked cell (an
+    agent pressed into a wall's clearance) takes its nearest free neighbour's steps plus
+    one, spread a few cells deep; anything still unreached the farthest reached distance
+    plus one (``fill``) or infinity."""
+    ny, nx = distances.shape
+    steps = distances.astype(np.float64)
+    steps[distances == UNREACHED] = np.inf
     for _ in range(4):
         padded = np.pad(steps, 1, constant_values=np.inf)
         around = np.min(
             [
-                padded[1 + di : 1 + di + grid.ny, 1 + dj : 1 + dj + grid.nx]
+                padded[1 + di : 1 + di + ny, 1 + dj : 1 + dj + nx]
                 for di in (-1, 0, 1)
                 for dj in (-1, 0, 1)
             ],
@@ -179,7 +241,8 @@ def walking_steps(grid: NavGrid, rects) -> np.ndarray:
         )
         steps = np.minimum(steps, around + 1.0)
     finite = np.isfinite(steps)
-    steps[~finite] = (steps[finite].max() + 1.0) if finite.any() else 0.0
+    if fill:
+        steps[~finite] = (steps[finite].max() + 1.0) if finite.any() else 0.0
     return steps
 
 
@@ -217,7 +280,7 @@ def learning_reward(args, env):
         return None
     Shaping.check(args.shaping)
     shaping = (
-        Shaping(potential_of(env, args.shaping_potential), args.shaping, args.gamma)
+        Shaping(potential_of(env, args.shaping_potential), args.shaping, shaping_gamma(args))
         if args.shaping
         else None
     )
@@ -230,6 +293,15 @@ def learning_reward(args, env):
         return out if shaping is None else out + shaping(env, terminated)
 
     return learn_from
+
+
+def shaping_gamma(args) -> float:
+    """The shaping term's discount: ``args.shaping_gamma``, or the learner's ``gamma``
+    where that is below 0 (the default)."""
+    gamma = getattr(args, "shaping_gamma", -1.0)
+    if not math.isfinite(gamma) or gamma > 1.0:
+        raise ValueError(f"shaping_gamma must be at most 1 (below 0: gamma), not {gamma}")
+    return args.gamma if gamma < 0 else gamma
 
 
 POTENTIALS = ("auto", "delivery", "goal")

@@ -175,10 +175,11 @@ SHOWN = (
     "team_reward",
     "shaping",
     "shaping_potential",
+    "shaping_gamma",
     "curriculum",
 )
 """The run options the page names (beside the task's defaults)."""
-QUIET = {"memory": "none", "frames": 1, "shaping_potential": "auto"}
+QUIET = {"memory": "none", "frames": 1, "shaping_potential": "auto", "shaping_gamma": -1.0}
 """Values of those options that are their defaults, named on no page."""
 
 

@@ -69,6 +69,23 @@ def check_versions(path: Path, today: dict[str, int]) -> None:
         )
 
 
+class ConfigurationMismatch(ValueError):
+    """A learned method's result of a tier, trained in another configuration than the one
+    the settings now name for its task."""
+
+
+def check_configuration(path: Path, name: str) -> None:
+    """``ConfigurationMismatch`` if the result at ``path`` names a configuration other
+    than ``name`` (a record that names none passes)."""
+    made = json.loads(path.read_text(encoding="utf-8")).get("configuration")
+    if made is not None and made != name:
+        raise ConfigurationMismatch(
+            f"{path} was trained as {made!r}, the settings now name {name!r}: results of "
+            "different configurations never mix; move the task's old results away and run "
+            "it again"
+        )
+
+
 def versions_text(versions: dict[str, int]) -> str:
     """``{"fruits_poisons": 1}`` -> ``fruits_poisons v1``."""
     return ", ".join(f"{name} v{version}" for name, version in sorted(versions.items()))

@@ -15,6 +15,7 @@ from baselines.benchmark.play import play_open_loop_task, play_task, scripted_se
 from baselines.benchmark.records import (
     OUT,
     RUNS,
+    check_configuration,
     check_versions,
     result_path,
     task_versions,
@@ -103,14 +104,20 @@ def run(
     PPO runs ``tier``'s seeds on its tasks; the other methods serve every tier. With
     ``hours``, no seed is started after that many hours (a bounded session).
     ``VersionMismatch`` before anything runs if a task's results in ``out`` were made on
-    other versions of its scenarios than today's."""
+    other versions of its scenarios than today's, ``ConfigurationMismatch`` if a learned
+    method's results of ``tier`` were trained in another configuration than it names."""
     written: list[Path] = []
     stop = time.monotonic() + hours * 3600.0 if hours else float("inf")
+    level = config.tier(tier)
     for name, kind in tasks:  # before anything runs: no result of another version beside
         today = task_versions(name, kind)
         for path in sorted((out / name).rglob("seed_*.json")):
             check_versions(path, today)
-    level = config.tier(tier)
+        for method in LEARNED.intersection(methods):  # nor of another configuration
+            for seed in range(level.seeds):
+                path = result_path(out, name, method, seed, tier)
+                if path.exists():
+                    check_configuration(path, level.task(name).name)
     for method in methods:
         for name, kind in tasks:
             if method == "ppo" and not (ppo_possible(name, kind) and level.runs(name)):

@@ -71,6 +71,28 @@ def _block_circle(blocked, cx, cy, radius, clearance, cell, x0, y0):
 
 
 @nb.njit(cache=True)
+def _visit(blocked, dist, code, out, n):
+    """Give the unreached free neighbours of cell ``code`` (8-connected, no corner
+    cutting) its steps plus one and append them to ``out`` from ``n``; the new ``n``."""
+    ny, nx = blocked.shape
+    i, j = code // nx, code % nx
+    for di in range(-1, 2):
+        for dj in range(-1, 2):
+            if di == 0 and dj == 0:
+                continue
+            a, b = i + di, j + dj
+            if a < 0 or b < 0 or a >= ny or b >= nx or blocked[a, b]:
+                continue
+            if di != 0 and dj != 0 and (blocked[i + di, j] or blocked[i, j + dj]):
+                continue
+            if dist[a, b] == UNREACHED:
+                dist[a, b] = dist[i, j] + 1
+                out[n] = a * nx + b
+                n += 1
+    return n
+
+
+@nb.njit(cache=True)
 def grid_steps(blocked, starts):
     """Steps (8-connected, no corner cutting) from the nearest start cell; UNREACHED if none."""
     ny, nx = blocked.shape
@@ -84,22 +106,44 @@ def grid_steps(blocked, starts):
             queue[tail] = i * nx + j
             tail += 1
     while head < tail:
-        code = queue[head]
+        tail = _visit(blocked, dist, queue[head], queue, tail)
         head += 1
-        i, j = code // nx, code % nx
-        for di in range(-1, 2):
-            for dj in range(-1, 2):
-                if di == 0 and dj == 0:
-                    continue
-                a, b = i + di, j + dj
-                if a < 0 or b < 0 or a >= ny or b >= nx or blocked[a, b]:
-                    continue
-                if di != 0 and dj != 0 and (blocked[i + di, j] or blocked[i, j + dj]):
-                    continue
-                if dist[a, b] == UNREACHED:
-                    dist[a, b] = dist[i, j] + 1
-                    queue[tail] = a * nx + b
-                    tail += 1
+    return dist
+
+
+@nb.njit(cache=True)
+def grid_steps_from(blocked, start):
+    """Steps as ``grid_steps``, where each free cell with ``start`` below UNREACHED is a
+    start that begins at that many steps: the least of start plus steps over the starts
+    (a breadth-first search level by level, each start joining at its own level)."""
+    ny, nx = blocked.shape
+    dist = np.full((ny, nx), UNREACHED, np.int32)
+    flat = start.ravel()
+    order = np.argsort(flat, kind="mergesort")
+    seeds = 0
+    while seeds < order.shape[0] and flat[order[seeds]] < UNREACHED:
+        seeds += 1
+    level_cells = np.empty(ny * nx, np.int64)
+    next_cells = np.empty(ny * nx, np.int64)
+    n_level, k = 0, 0
+    level = flat[order[0]] if seeds > 0 else 0
+    while n_level > 0 or k < seeds:
+        if n_level == 0 and flat[order[k]] > level:
+            level = flat[order[k]]
+        while k < seeds and flat[order[k]] == level:
+            code = order[k]
+            k += 1
+            i, j = code // nx, code % nx
+            if not blocked[i, j] and dist[i, j] == UNREACHED:
+                dist[i, j] = level
+                level_cells[n_level] = code
+                n_level += 1
+        n_next = 0
+        for q in range(n_level):
+            n_next = _visit(blocked, dist, level_cells[q], next_cells, n_next)
+        level_cells, next_cells = next_cells, level_cells
+        n_level = n_next
+        level += 1
     return dist
 
 
@@ -203,6 +247,11 @@ class NavGrid:
         """BFS steps from the free cells of ``start_mask`` to every cell."""
         starts = np.argwhere(start_mask & ~self.blocked).astype(np.int64).reshape(-1, 2)
         return grid_steps(self.blocked, starts)
+
+    def distances_from(self, start_steps: np.ndarray) -> np.ndarray:
+        """BFS steps where every free cell with ``start_steps`` below UNREACHED is a start
+        that begins at that many steps (the rest of a way that goes on from there)."""
+        return grid_steps_from(self.blocked, np.ascontiguousarray(start_steps, np.int32))
 
     def reachable(self, start_mask: np.ndarray) -> np.ndarray:
         return self.distances(start_mask) != UNREACHED

@@ -231,7 +231,13 @@ def test_goal_shaping_telescopes_and_refuses_scenarios_without_a_paying_zone():
     plain.close()
 
 
-def test_the_goal_potential_leads_to_the_switch_while_the_door_is_shut():
+def _still(env):
+    """Every slot turns on the spot (these scenarios' agents have no action to stand)."""
+    turn = env.worlds[0].actuators[0].index("rotate_left")
+    return np.full(env.num_slots, turn, env.single_action_space.dtype)
+
+
+def test_the_goal_potential_goes_by_the_switch_and_does_not_jump_when_it_opens_the_door():
     from baselines.shaping import GoalPotential
 
     env = BatchedParallelEnv("switch_door", num_worlds=1)
@@ -240,13 +246,96 @@ def test_the_goal_potential_leads_to_the_switch_while_the_door_is_shut():
     potential = GoalPotential(env)
     plate = next(z for z in episode.world.zones if z.name == "plate")
     body = episode.bodies[0].body
+    cell = episode.grid.cell
+    # Shut: the way goes to the 40 x 40 plate and from it through the doorway (x = 250) to
+    # the goal at x = 340. A diagonal grid step counts one, so a way is at least the larger
+    # of its x and y spans and at most its straight length (and a few cells).
+    body.position = (30, 30)
+    far = -potential()[0] * 100
+    (px, py), goal_x = plate.centre, 340 - 6
+    least = max(abs(px - 30), abs(py - 30)) - 20 + goal_x - (px + 20)
+    most = math.dist((30, 30), (px, py)) + math.dist((px, py), (250, 125)) + goal_x - 250
+    assert least - 2 * cell <= far <= most + 6 * cell
     body.position = plate.centre
-    # Shut: the goal lies behind the door, the plate is the target, and the agent is on it.
-    assert potential()[0] == 0.0
-    door = episode.doors[0]
-    door.is_open = True
-    # Open: the plate is no target any more; the goal (x = 340) is through the doorway.
-    opened = potential()[0]
-    assert opened < 0.0
-    assert opened >= -(math.dist(plate.centre, (250, 125)) + 90 + 40) / 100
+    on_plate = potential()[0]
+    assert -far / 100 < on_plate < 0.0
+    env.step(_still(env))  # standing on the plate opens the door for good
+    assert episode.doors[0].is_open
+    # Open: the same way from here, so the potential does not jump.
+    assert potential()[0] == pytest.approx(on_plate, abs=2 * cell / 100)
     env.close()
+
+
+def test_the_goal_potential_goes_by_the_key_and_does_not_jump_when_it_is_taken():
+    from baselines.shaping import GoalPotential
+    from flatland_ma.world.entities import Item
+
+    for seed in range(3):
+        env = BatchedParallelEnv("key_door", num_worlds=1)
+        env.reset(seed=seed)
+        episode = env.worlds[0].running
+        potential = GoalPotential(env)
+        key = next(item for item in episode.world.of_type(Item) if item.group.key)
+        cell = episode.grid.cell
+        body = episode.bodies[0].body
+        body.position = key.body.position
+        at_key = potential()[0]
+        # The key pays 1 but is on the way, not its end: the goal is still to walk to.
+        assert at_key < -(340 - 250) / 100
+        _, reward, *_ = env.step(_still(env))
+        assert reward[0] == 1.0 and episode.task.records[0].keys == {"key"}
+        assert potential()[0] == pytest.approx(at_key, abs=2 * cell / 100)
+        env.close()
+
+
+@pytest.mark.parametrize("scenario", ["key_door", "switch_door", "key_carry"])
+def test_the_goal_potential_rises_along_the_scripted_solvers_way_without_a_fall(scenario):
+    """The solver walks to the key (or the plate, or the key object, then carries it to the
+    door) and on to the goal: the whole way shrinks at every step, so Phi never falls by
+    more than a cell's rounding, not at the key, the plate or the door."""
+    from types import SimpleNamespace
+
+    from baselines.shaping import GoalPotential
+    from flatland_ma.envs.parallel import FlatlandParallelEnv
+    from flatland_ma.policies.named import make_policy
+
+    env = FlatlandParallelEnv(scenario)
+    observations, _ = env.reset(seed=0)
+    agent = env.possible_agents[0]
+    solver = make_policy(env.spec.reference.solver, env, agent)
+    worlds = [SimpleNamespace(running=env.episode, spec=env.spec)]
+    potential = GoalPotential(SimpleNamespace(worlds=worlds, agents_per_world=1))
+    cell = env.episode.grid.cell
+    phi, total = [potential()[0]], 0.0
+    while env.agents:
+        observations, rewards, *_ = env.step({agent: solver.act(observations[agent])})
+        total += rewards[agent]
+        if env.agents:
+            phi.append(potential()[0])
+    assert total >= 10.0  # the solver reached the goal
+    assert phi[0] < -1.0 and np.diff(phi).min() >= -cell / 100 - 1e-9
+    env.close()
+
+
+def test_the_shaping_discount_is_the_learners_unless_set_and_refused_above_one():
+    from baselines.shaping import shaping_gamma
+
+    assert shaping_gamma(Args(gamma=0.9)) == 0.9
+    assert shaping_gamma(Args(gamma=0.9, shaping_gamma=1.0)) == 1.0
+    for bad in (1.5, math.nan, math.inf):
+        with pytest.raises(ValueError, match="shaping_gamma must be at most 1"):
+            shaping_gamma(Args(shaping_gamma=bad))
+    # At a discount of 1 the term is the plain progress: standing still earns nothing.
+    env = BatchedParallelEnv("key_door", num_worlds=2)
+    env.reset(seed=0)
+    shaping = Shaping(potential_of_goal(env), coef=1.0, gamma=1.0)
+    shaping.start(env)
+    env.step(_still(env))
+    assert np.all(shaping(env, np.zeros(env.num_slots, bool)) == 0.0)
+    env.close()
+
+
+def potential_of_goal(env):
+    from baselines.shaping import potential_of
+
+    return potential_of(env, "goal")

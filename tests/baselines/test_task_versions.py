@@ -7,7 +7,13 @@ import gymnasium
 import pytest
 
 import flatland_ma
-from baselines.benchmark.records import VersionMismatch, check_current, read_results, task_versions
+from baselines.benchmark.records import (
+    ConfigurationMismatch,
+    VersionMismatch,
+    check_current,
+    read_results,
+    task_versions,
+)
 from baselines.benchmark.runs import run
 from baselines.benchmark.settings import SETTINGS, load_config
 from flatland_ma.envs import registration
@@ -96,3 +102,21 @@ def test_a_result_written_names_its_versions(tmp_path):
     record = json.loads(path.read_text())
     assert record["task_versions"] == {"push_box": 0} and record["task"] == "push_box"
     assert run(config, [("push_box", "scenario")], ["random"], tmp_path, tmp_path / "runs") == []
+
+
+def test_the_benchmark_refuses_to_resume_beside_results_of_another_configuration(tmp_path):
+    config = load_config(SETTINGS)
+    standard = config.tier("standard")
+    named = standard.task("key_door").name
+    path = tmp_path / "key_door" / "ppo" / "standard" / "seed_1.json"
+    path.parent.mkdir(parents=True)
+    record = {"task": "key_door", "method": "ppo", "seed": 1, "score": 1.0, "tier": "standard"}
+    path.write_text(json.dumps({**record, "configuration": named}))
+    # The same configuration passes (and, out of time at once, nothing is trained).
+    tasks = [("key_door", "scenario")]
+    assert run(config, tasks, ["ppo"], tmp_path, tier="standard", hours=1e-12) == []
+    path.write_text(json.dumps({**record, "configuration": "a GRU, 64 worlds"}))
+    with pytest.raises(ConfigurationMismatch) as refused:
+        run(config, tasks, ["ppo"], tmp_path, tier="standard", hours=1e-12)
+    message = str(refused.value)
+    assert str(path) in message and "'a GRU, 64 worlds'" in message and repr(named) in message
