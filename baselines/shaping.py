@@ -48,8 +48,10 @@ def team_rewards(reward: np.ndarray, agents_per_world: int) -> np.ndarray:
 
 class DeliveryPotential:
     """Phi per slot of a batched env (see the module's docstring), read from the worlds'
-    global state (``env.state()``). Raises ``ValueError`` for a scenario without a zone
-    that accepts a movable object's tag."""
+    global state (``env.state()``). Each agent's zone is its team's where zones belong to
+    teams (``tug_of_war``: each team shaped towards its own area), else the first zone
+    that takes a delivery. Raises ``ValueError`` for a scenario without a zone that
+    accepts a movable object's tag."""
 
     def __init__(self, env):
         world = env.worlds[0] if hasattr(env, "worlds") else None
@@ -65,24 +67,34 @@ class DeliveryPotential:
                 f"{spec.name if hasattr(spec, 'name') else 'this scenario'} delivers nothing "
                 "(no zone accepts a movable object's tag): delivery shaping needs one"
             )
-        k, zone = pairs[0]
         self.width, self.height = spec.arena.size
-        self.rect = zone.rect
-        self.object = (labels.index(f"object[{k}].x"), labels.index(f"object[{k}].y"))
         m = env.agents_per_world
         names = env.possible_agents
-        self.agents = [(labels.index(f"{n}.x"), labels.index(f"{n}.y")) for n in names[:m]]
+        self.agents = []
+        """Per agent: its x and y columns, its object's and its zone's rectangle."""
+        for j, name in enumerate(names[:m]):
+            team = spec.team_of(j)
+            own = [p for p in pairs if team is not None and p[1].team == team.name]
+            k, zone = (own or pairs)[0]
+            self.agents.append(
+                (
+                    labels.index(f"{name}.x"),
+                    labels.index(f"{name}.y"),
+                    labels.index(f"object[{k}].x"),
+                    labels.index(f"object[{k}].y"),
+                    zone.rect,
+                )
+            )
 
     def __call__(self, states: np.ndarray) -> np.ndarray:
         """Phi of each slot, from the worlds' states (one row per world)."""
-        x0, y0, x1, y1 = self.rect
-        ox = states[:, self.object[0]] * self.width
-        oy = states[:, self.object[1]] * self.height
-        to_zone = np.hypot(
-            np.maximum(0, np.maximum(x0 - ox, ox - x1)), np.maximum(0, np.maximum(y0 - oy, oy - y1))
-        )
         out = np.empty((len(states), len(self.agents)))
-        for j, (ix, iy) in enumerate(self.agents):
+        for j, (ix, iy, jx, jy, (x0, y0, x1, y1)) in enumerate(self.agents):
+            ox, oy = states[:, jx] * self.width, states[:, jy] * self.height
+            to_zone = np.hypot(
+                np.maximum(0, np.maximum(x0 - ox, ox - x1)),
+                np.maximum(0, np.maximum(y0 - oy, oy - y1)),
+            )
             to_object = np.hypot(states[:, ix] * self.width - ox, states[:, iy] * self.height - oy)
             out[:, j] = -(to_zone + to_object / 2) / 100.0
         return out.reshape(-1)

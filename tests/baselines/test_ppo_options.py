@@ -68,10 +68,8 @@ def test_the_potential_is_highest_with_the_crate_in_the_zone_and_the_agent_besid
     potential = DeliveryPotential(env)
     state = env.state().copy()
     start = potential(state)
-    ox, oy = potential.object
-    x0, y0, x1, y1 = potential.rect
-    state[0, ox], state[0, oy] = (x0 + x1) / 2 / 400, (y0 + y1) / 2 / 300
-    for ix, iy in potential.agents:
+    for ix, iy, ox, oy, (x0, y0, x1, y1) in potential.agents:
+        state[0, ox], state[0, oy] = (x0 + x1) / 2 / 400, (y0 + y1) / 2 / 300
         state[0, ix], state[0, iy] = state[0, ox], state[0, oy]
     assert np.allclose(potential(state), 0.0)
     assert np.all(start < 0.0)
@@ -339,3 +337,20 @@ def potential_of_goal(env):
     from baselines.shaping import potential_of
 
     return potential_of(env, "goal")
+
+
+def test_delivery_shaping_leads_each_team_to_its_own_area():
+    from flatland_ma.world.entities import Obstacle
+
+    env = BatchedParallelEnv("tug_of_war", num_worlds=1, pad=True)
+    env.reset(seed=0)
+    episode = env.worlds[0].running
+    potential = DeliveryPotential(env)
+    [ball] = [o for o in episode.world.of_type(Obstacle) if o.tag == "ball"]
+    ball.body.position = (100, 150)  # 60 from red's area (x < 40), 360 from blue's (x > 460)
+    for body in episode.bodies:
+        body.body.position = (100, 100)  # every agent 50 from the ball
+    phi = potential(env.state())
+    assert phi[:2] == pytest.approx(-(60 + 25) / 100, abs=0.01)  # red_0, red_1
+    assert phi[2:] == pytest.approx(-(360 + 25) / 100, abs=0.01)  # blue_0, blue_1
+    env.close()
