@@ -30,9 +30,10 @@ potential-based shaping term. Neither changes what the run logs (the scenario's 
 delivery first, then goal; or either by name). ``--shaping-gamma G`` sets the term's own
 discount, ``coef * (G Phi(s') - Phi(s))``: by default the learner's gamma, which keeps the
 optimal policies but pays ``(1 - gamma) |Phi|`` every step for being far from the target
-(with Phi of -2 to -4, more than the progress terms are noisy); 1, the plain progress
-made each step, which taught ``switch_door``, ``push_box`` and ``fetch_object`` where the
-learner's gamma and no shaping taught nothing (docs/results.md).
+(with Phi of -2 to -4, more than the progress terms are noisy: on ``key_door`` it kept the
+agent from the goal); 1, the plain progress made each step, which taught ``switch_door``,
+``push_box`` and ``fetch_object`` where no shaping was paid rarely or never
+(docs/results.md).
 """
 
 from __future__ import annotations
