@@ -131,6 +131,8 @@ class GoalPotential:
             )
         self.worlds = worlds
         self.agents = env.agents_per_world
+        self.radii = [spec.agent_of(j).radius for j in range(self.agents)]
+        """Each agent's radius: its ways are over the grid of where its centre fits."""
         self._fields: list[dict] = [{} for _ in worlds]
         """Each world's fields, by the doors shut to an agent (cleared with a new episode
         or new places of its paying things and keys)."""
@@ -146,38 +148,53 @@ class GoalPotential:
             for j, body in enumerate(episode.bodies):
                 keys = episode.task.records[j].keys
                 shut = frozenset(d.index for d in episode.doors if d.blocks(keys))
-                fields = self._fields[w]
-                if shut not in fields:
-                    fields[shut] = spread(self._way(episode, things, shut), fill=False)
+                grid = episode.grid_for(self.radii[j])  # where this agent's centre fits
+                fields, field = self._fields[w], (grid.clearance, shut)
+                if field not in fields:
+                    fields[field] = spread(self._way(episode, grid, things, shut), fill=False)
                 here = body.body.position
-                steps = fields[shut][episode.grid.cell_of(*here)]
+                steps = fields[field][grid.cell_of(*here)]
                 for door in episode.doors:
                     for key, there in carried:
                         if door.index in shut and key == door.gate_key:
-                            walk = math.dist(here, there) / episode.grid.cell
-                            carry = self._carry(w, episode, things, shut, door)
-                            steps = min(steps, walk + carry[episode.grid.cell_of(*there)])
-                if not math.isfinite(steps):  # nothing reachable: as far as the farthest
-                    finite = fields[shut][np.isfinite(fields[shut])]
-                    steps = finite.max() + 1.0 if finite.size else 0.0
-                out[w, j] = -steps * episode.grid.cell / 100.0
+                            walk = math.dist(here, there) / grid.cell
+                            carry = self._carry(w, episode, grid, things, shut, door)
+                            steps = min(steps, walk + carry[grid.cell_of(*there)])
+                if not math.isfinite(steps):  # no way it can open: as though the doors were
+                    steps = self._open_way(w, episode, grid, things, here)
+                out[w, j] = -steps * grid.cell / 100.0
         return out.reshape(-1)
 
-    def _carry(self, w: int, episode, things: tuple, shut: frozenset, door) -> np.ndarray:
-        """Grid steps from every cell to a paying thing by way of ``door``, for a key object
-        there: carried to the door (until it touches it) and on through the open door."""
-        fields = self._fields[w]
-        if (shut, door.index) not in fields:
-            grid = self._shut_grid(episode, shut)
-            after = self._way(episode, things, shut - {door.index})
+    def _open_way(self, w: int, episode, grid, things: tuple, here) -> float:
+        """Grid steps to a paying thing with every door open (an agent that cannot open the
+        door in its way itself, such as ``plate_relay``'s runner, is led to it and waits
+        there for another to open it), or, where even that finds nothing, the farthest
+        way plus one."""
+        fields, field = self._fields[w], (grid.clearance, frozenset())
+        if field not in fields:
+            fields[field] = spread(self._way(episode, grid, things, frozenset()), fill=False)
+        steps = fields[field][grid.cell_of(*here)]
+        if math.isfinite(steps):
+            return float(steps)
+        finite = fields[field][np.isfinite(fields[field])]
+        return finite.max() + 1.0 if finite.size else 0.0
+
+    def _carry(self, w: int, episode, base, things: tuple, shut: frozenset, door) -> np.ndarray:
+        """Grid steps from every cell of ``base`` to a paying thing by way of ``door``, for
+        a key object there: carried to the door (until it touches it) and on through the
+        open door."""
+        fields, field = self._fields[w], (base.clearance, shut, door.index)
+        if field not in fields:
+            grid = self._shut_grid(episode, base, shut)
+            after = self._way(episode, base, things, shut - {door.index})
             near = grid.shape_mask(door.shapes[0], extra=2 * grid.cell) & ~grid.blocked
             start = np.where(near, after, UNREACHED).astype(np.int32)
-            fields[(shut, door.index)] = spread(grid.distances_from(start), fill=False)
-        return fields[(shut, door.index)]
+            fields[field] = spread(grid.distances_from(start), fill=False)
+        return fields[field]
 
     @staticmethod
-    def _shut_grid(episode, shut: frozenset):
-        grid = episode.grid.copy()
+    def _shut_grid(episode, base, shut: frozenset):
+        grid = base.copy()
         for door in episode.doors:
             if door.index in shut:
                 grid.block_shape(door.shapes[0])
@@ -199,11 +216,12 @@ class GoalPotential:
             self._fields[w].clear()
         return things
 
-    def _way(self, episode, things: tuple, shut: frozenset) -> np.ndarray:
-        """Grid steps from every cell to a paying thing with the doors ``shut`` shut: the
-        least of walking straight there and of walking to what opens a shut door (its key,
-        its switch) and on from there as though it were open (and its key taken)."""
-        grid = self._shut_grid(episode, shut)
+    def _way(self, episode, base, things: tuple, shut: frozenset) -> np.ndarray:
+        """Grid steps from every cell of ``base`` to a paying thing with the doors ``shut``
+        shut: the least of walking straight there and of walking to what opens a shut door
+        (its key, its switch) and on from there as though it were open (and its key
+        taken)."""
+        grid = self._shut_grid(episode, base, shut)
         openers = {d.gate_key for d in episode.doors if d.index in shut and d.gate_key}
         mask = np.zeros_like(grid.blocked)
         for rect, pays, key in things:
@@ -225,7 +243,7 @@ class GoalPotential:
             taken = tuple(
                 thing for thing in things if thing[2] is None or thing[2] != door.gate_key
             )
-            after = self._way(episode, taken, shut - {door.index})
+            after = self._way(episode, base, taken, shut - {door.index})
             start = np.where(opener, after, UNREACHED).astype(np.int32)
             best = np.minimum(best, grid.distances_from(start))
         return best
