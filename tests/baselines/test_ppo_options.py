@@ -354,3 +354,24 @@ def test_delivery_shaping_leads_each_team_to_its_own_area():
     assert phi[:2] == pytest.approx(-(60 + 25) / 100, abs=0.01)  # red_0, red_1
     assert phi[2:] == pytest.approx(-(360 + 25) / 100, abs=0.01)  # blue_0, blue_1
     env.close()
+
+
+def test_the_runner_is_led_to_the_door_the_scout_opens_and_the_scout_to_the_plate():
+    from baselines.shaping import GoalPotential
+
+    env = BatchedParallelEnv("plate_relay", num_worlds=1, pad=True)
+    env.reset(seed=0)
+    episode = env.worlds[0].running
+    potential = GoalPotential(env)
+    scout, runner = potential()
+    # The runner (radius 12) cannot go down the scout's passage to the plate: its way is
+    # the walk to the goal as though the door were open, so the door's opening changes
+    # nothing for it; the scout's way goes by the plate.
+    episode.bodies[0].body.position = (100, 212)  # the scout on the plate
+    on_plate, _ = potential()
+    assert scout < on_plate < 0.0
+    env.step(np.full(env.num_slots, 1, env.single_action_space.dtype))  # both turn
+    assert episode.doors[0].is_open
+    assert potential()[1] == pytest.approx(runner, abs=2 * episode.grid.cell / 100)
+    assert runner < -(350 - 250) / 100  # the runner starts west of the door
+    env.close()
