@@ -19,6 +19,7 @@ from pages import (
     split_scores,
     table,
 )
+from tried import tried_section
 
 import flatland_ma
 from flatland_ma.envs.registration import gym_id
@@ -67,6 +68,7 @@ def scenario_page(name: str, page_dir: Path, images: Path) -> str:
     parts += benchmark_section(name, page_dir)
     parts += reach_section(name, page_dir)
     parts += curve_section(name, page_dir)
+    parts += tried_section(name, page_dir)
     parts += _overrides(name, spec)
     parts += ["## The file", "", literal_file(path, page_dir), ""]
     return "\n".join(parts)

@@ -522,3 +522,37 @@ def test_a_scenario_page_shows_its_curve_only_when_drawn(tmp_path, monkeypatch):
     lines = scenario_page.curve_section("fruits_poisons", tmp_path / "scenarios")
     assert "```{image} ../images/curves/fruits_poisons.png" in lines
     sys.modules.pop("scenario_page", None)
+
+
+def test_what_was_tried_is_checked_and_shown_on_the_scenario_page(tmp_path, monkeypatch):
+    import sys
+
+    from flatland_ma.scenario.shipped import list_scenarios
+
+    monkeypatch.syspath_prepend(str(ROOT / "docs" / "_ext"))
+    tried = __import__("tried")
+    shipped = tried.load()  # the committed file is well formed, of tasks that exist
+    streams = {p.stem for p in (ROOT / "scenarios" / "streams").glob("*.yaml")}
+    assert shipped and set(shipped) <= set(list_scenarios()) | streams
+    for entry in shipped.values():
+        for attempt in entry.tried:
+            page, _, anchor = attempt.where.partition("#")
+            text = (ROOT / page).read_text(encoding="utf-8")
+            assert not anchor or any(
+                line.startswith("#") and _slug(line) == anchor for line in text.splitlines()
+            ), attempt.where
+    lines = tried.tried_section("explore_goal", ROOT / "docs" / "scenarios")
+    assert lines[0] == "### What was tried" and any("](../results.md#" in x for x in lines)
+    assert any(x.startswith("**What blocks it.**") for x in lines)
+    assert tried.tried_section("fruits_poisons", ROOT / "docs" / "scenarios") == []
+    bad = tmp_path / "tried.yaml"
+    bad.write_text("key_door:\n  tried:\n    - {what: x, agent_steps: 0, seeds: 1}\n")
+    with pytest.raises(ValueError, match="agent_steps"):
+        tried.load(bad)
+    sys.modules.pop("tried", None)
+
+
+def _slug(heading: str) -> str:
+    """The anchor MyST gives a Markdown heading (lower case, words joined by hyphens)."""
+    words = "".join(c for c in heading.lstrip("#").strip().lower() if c.isalnum() or c in " -")
+    return "-".join(words.split())
