@@ -111,7 +111,8 @@ class GoalPotential:
     agent still has to walk to a paying thing, over 100. The paying things are the zones
     and the items that pay, less the keys of doors still shut to it; where a door in its
     way is shut (locked without its key, or shut until a switch opens it), the way may go
-    by what opens it (the key, the switch) and on from there through the open door. The
+    by what opens it (the key, the switch, the key object carried to the door) and on
+    from there through the open door. The
     fields are worked out again whenever a world's episode, the places of its paying
     things and keys, or the doors shut to an agent change (breadth-first searches over the
     episode's navigation grid). Raises ``ValueError`` for a scenario where nothing pays,
@@ -151,7 +152,7 @@ class GoalPotential:
                 grid = episode.grid_for(self.radii[j])  # where this agent's centre fits
                 fields, field = self._fields[w], (grid.clearance, shut)
                 if field not in fields:
-                    fields[field] = spread(self._way(episode, grid, things, shut), fill=False)
+                    fields[field] = spread(self._way(episode, grid, things, shut))
                 here = body.body.position
                 steps = fields[field][grid.cell_of(*here)]
                 for door in episode.doors:
@@ -172,7 +173,7 @@ class GoalPotential:
         way plus one."""
         fields, field = self._fields[w], (grid.clearance, frozenset())
         if field not in fields:
-            fields[field] = spread(self._way(episode, grid, things, frozenset()), fill=False)
+            fields[field] = spread(self._way(episode, grid, things, frozenset()))
         steps = fields[field][grid.cell_of(*here)]
         if math.isfinite(steps):
             return float(steps)
@@ -189,7 +190,7 @@ class GoalPotential:
             after = self._way(episode, base, things, shut - {door.index})
             near = grid.shape_mask(door.shapes[0], extra=2 * grid.cell) & ~grid.blocked
             start = np.where(near, after, UNREACHED).astype(np.int32)
-            fields[field] = spread(grid.distances_from(start), fill=False)
+            fields[field] = spread(grid.distances_from(start))
         return fields[field]
 
     @staticmethod
@@ -223,11 +224,8 @@ class GoalPotential:
         taken)."""
         grid = self._shut_grid(episode, base, shut)
         openers = {d.gate_key for d in episode.doors if d.index in shut and d.gate_key}
-        mask = np.zeros_like(grid.blocked)
-        for rect, pays, key in things:
-            if pays and key not in openers:
-                mask |= grid.cells_in(rect)
-        best = grid.distances(mask)
+        ends = [rect for rect, pays, key in things if pays and key not in openers]
+        best = grid.distances(cells_of(grid, ends))
         zones = {z.name: z.rect for z in episode.world.zones}
         for door in episode.doors:
             if door.index not in shut:
@@ -237,9 +235,7 @@ class GoalPotential:
                 rects.append(zones[door.switch])
             if not rects:
                 continue
-            opener = np.zeros_like(grid.blocked)
-            for rect in rects:
-                opener |= grid.cells_in(rect)
+            opener = cells_of(grid, rects)
             taken = tuple(
                 thing for thing in things if thing[2] is None or thing[2] != door.gate_key
             )
@@ -249,19 +245,18 @@ class GoalPotential:
         return best
 
 
-def walking_steps(grid: NavGrid, rects) -> np.ndarray:
-    """Grid steps from every cell to the nearest of ``rects``, as floats (``spread``)."""
-    mask = np.zeros((grid.ny, grid.nx), np.bool_)
+def cells_of(grid: NavGrid, rects) -> np.ndarray:
+    """The mask of ``grid``'s cells in any of ``rects``."""
+    mask = np.zeros_like(grid.blocked)
     for rect in rects:
         mask |= grid.cells_in(rect)
-    return spread(grid.distances(mask))
+    return mask
 
 
-def spread(distances: np.ndarray, fill: bool = True) -> np.ndarray:
+def spread(distances: np.ndarray) -> np.ndarray:
     """Grid steps as floats where a blocked or unreached cell has none: a blocked cell (an
     agent pressed into a wall's clearance) takes its nearest free neighbour's steps plus
-    one, spread a few cells deep; anything still unreached the farthest reached distance
-    plus one (``fill``) or infinity."""
+    one, spread a few cells deep; anything still unreached infinity."""
     ny, nx = distances.shape
     steps = distances.astype(np.float64)
     steps[distances == UNREACHED] = np.inf
@@ -276,9 +271,6 @@ def spread(distances: np.ndarray, fill: bool = True) -> np.ndarray:
             axis=0,
         )
         steps = np.minimum(steps, around + 1.0)
-    finite = np.isfinite(steps)
-    if fill:
-        steps[~finite] = (steps[finite].max() + 1.0) if finite.any() else 0.0
     return steps
 
 
