@@ -5,7 +5,8 @@ rollout that ends after them); an easier version of a task
 first (a lighter crate, a closer goal: the scenario's keyword overrides), then the task
 itself. The run's log holds every stage's episodes; its JSON says at which agent-step each
 stage began. Every stage must give the agents the spaces of the first (the stream's loader
-checks it), since one network learns throughout.
+checks it, through the padded space where a task's roles observe differently, as
+``baselines.ppo`` pads them), since one network learns throughout.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ class Stage:
 
 def curriculum_stages(path: str | Path) -> list[Stage]:
     """The stages of the stream file at ``path``, over all its cycles, in order."""
-    stream = load_stream(Path(path))
+    stream = load_stream(Path(path), padded=True)  # baselines.ppo pads roles' observations
     if stream.never_ending:
         raise ValueError(f"{path}: a curriculum needs tasks, not the never-ending mode")
     stages = []

@@ -232,10 +232,13 @@ class Stream:
         return segments[-1][2] if segments else None
 
 
-def load_stream(name: str | Path) -> Stream:
+def load_stream(name: str | Path, padded: bool = False) -> Stream:
     """A shipped stream by name, or a stream file; ``ScenarioError`` (file, line, key
     path) if it is not a valid stream, its scenarios and background policies included, or
-    if the file is no regular file (``flatland_ma.scenario.files``)."""
+    if the file is no regular file (``flatland_ma.scenario.files``). ``padded``: the
+    learner reads its agents' observations padded to one space (``envs.padding``, as
+    ``baselines.ppo`` does), so agents of a task may observe differently; the padded
+    spaces must then agree from task to task."""
     if isinstance(name, Stream):
         return name
     path = Path(name)
@@ -250,10 +253,10 @@ def load_stream(name: str | Path) -> Stream:
         spec = StreamSpec.model_validate(raw)
     except ValidationError as err:
         raise ScenarioError(problems_from(err.errors(), StreamSpec, raw, marks, source)) from None
-    return _checked(path.stem, spec, marks, source)
+    return _checked(path.stem, spec, marks, source, padded)
 
 
-def _checked(name: str, spec: StreamSpec, marks: Marks, source: str) -> Stream:
+def _checked(name: str, spec: StreamSpec, marks: Marks, source: str, padded: bool) -> Stream:
     """Each task's scenario loaded and checked, faults located at the task's keys; every
     task's learner spaces equal; every background policy made for the agents it drives."""
 
@@ -279,7 +282,7 @@ def _checked(name: str, spec: StreamSpec, marks: Marks, source: str) -> Stream:
             raise fault((*key, *err.path), str(err)) from None
         scenarios.append(scenario)
     stream = Stream(name, spec, scenarios, source, focal)
-    _same_spaces(scenarios, focal, entries, fault)
+    _same_spaces(scenarios, focal, entries, fault, padded)
     return stream
 
 
@@ -290,24 +293,38 @@ def task_scenario_file(name: str, stream_file: Path) -> Path | str:
     return beside if name and os.path.lexists(beside) else name
 
 
-def _same_spaces(scenarios: list[ScenarioSpec], focals: list[list[int]], entries, fault) -> None:
+def _learner_spaces(env, focal: list[int], padded: bool) -> set[tuple[str, str]]:
+    """The observation and action spaces of ``env``'s agents ``focal``, as text; with
+    ``padded``, agents that observe differently observe their padded space (``SpecError``
+    where they cannot share one)."""
+    from flatland_ma.envs.padding import Padding
+
+    agents = [env.possible_agents[i] for i in focal]
+    observed = [env.observation_space(agent) for agent in agents]
+    if padded and len({str(space) for space in observed}) > 1:
+        try:
+            observed = [Padding(observed).space] * len(agents)
+        except ValueError as err:
+            message = f"the learner's agents cannot share one padded space: {err}"
+            raise SpecError((), message) from None
+    return {(str(o), str(env.action_space(a))) for o, a in zip(observed, agents)}
+
+
+def _same_spaces(
+    scenarios: list[ScenarioSpec], focals: list[list[int]], entries, fault, padded: bool
+) -> None:
     """Whether the learner's agents (``focals``, per task) observe and act alike in every
-    task, under the same names, and each background policy can drive its agents; raises
-    ``fault`` at the task's key where not."""
+    task (``padded``: through the padded space of each task's agents), under the same
+    names, and each background policy can drive its agents; raises ``fault`` at the task's
+    key where not."""
     from flatland_ma.envs.parallel import FlatlandParallelEnv
 
     first = None
     for (key, task), scenario, focal in zip(entries, scenarios, focals):
         env = FlatlandParallelEnv(scenario)
         names = [env.possible_agents[i] for i in focal]
-        spaces = {
-            (
-                str(env.observation_space(env.possible_agents[i])),
-                str(env.action_space(env.possible_agents[i])),
-            )
-            for i in focal
-        }
         try:
+            spaces = _learner_spaces(env, focal, padded)
             background = getattr(task, "background", None)
             if background is not None:
                 others = [a for i, a in enumerate(env.possible_agents) if i not in focal]

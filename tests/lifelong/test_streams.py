@@ -429,3 +429,22 @@ def test_actions_for_agents_the_learner_does_not_drive_are_refused(tmp_path):
         env.step({"agent_0": 0, "agent_1": 0})
     with pytest.raises(ValueError, match="no action given for live agent 'agent_0'"):
         env.step({})
+
+
+def test_roles_that_observe_differently_share_one_padded_space_when_the_learner_pads(tmp_path):
+    """plate_relay's scout and runner see with cameras of 64 and 32 rays: one network
+    drives both only through the padded space (baselines.ppo's), which must then agree
+    from task to task."""
+    path = tmp_path / "roles.yaml"
+    task = "  - {{name: {0}, scenario: plate_relay, steps: 5{1}}}\n"
+    latched = ", overrides: {doors: [{start: [250, 100], end: [250, 150], switch: plate, "
+    latched += "latch: true}]}"
+    path.write_text("tasks:\n" + task.format("latched", latched) + task.format("task", ""))
+    with pytest.raises(ScenarioError, match=r"tasks\[0\]: the learner's agents have different"):
+        load_stream(path)
+    assert load_stream(path, padded=True).task_labels == ["latched", "task"]
+    wider = ", overrides: {teams: [{name: scout, agent: {radius: 6, camera: {rays: 48}}}, "
+    wider += "{name: runner, agent: {radius: 12, camera: {rays: 32}}}]}"
+    path.write_text("tasks:\n" + task.format("task", "") + task.format("wider", wider))
+    with pytest.raises(ScenarioError, match=r"tasks\[1\]: the learner observes Dict"):
+        load_stream(path, padded=True)
