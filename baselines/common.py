@@ -20,6 +20,7 @@ import os
 import random
 import resource
 import time
+import warnings
 from pathlib import Path
 
 import gymnasium
@@ -57,6 +58,24 @@ def info_counters(info: dict) -> tuple[str, ...]:
 def counters_text(info: dict, names: tuple[str, ...]) -> str:
     """``score=160 fruits=17 poisons=1``, for the console."""
     return " ".join(f"{name}={_cell(info[name])}" for name in names)
+
+
+def _keep_rows(part: Path, agent_steps: int) -> int:
+    """Rewrite the log ``part`` with its header and the rows of episodes that ended by
+    ``agent_steps`` (a row cut short by the interruption is dropped); the number of
+    episodes kept (the next episode's index)."""
+    with open(part, newline="") as f:
+        rows = list(csv.reader(f))
+
+    def ended_by(row: list[str]) -> bool:
+        whole = len(row) == len(header) and row[-1].count(".") == 1  # wall_time: %.2f
+        return whole and row[1].isdigit() and row[2].isdigit() and int(row[2]) <= agent_steps
+
+    header = rows[0]
+    kept = [r for r in rows[1:] if ended_by(r)]
+    with open(part, "w", newline="") as f:
+        csv.writer(f).writerows([header, *kept])
+    return 1 + max((int(r[1]) for r in kept), default=-1)
 
 
 def _cell(value) -> str:
@@ -216,9 +235,19 @@ class RunLog:
     """Writes episode rows to ``<csv>.part`` as they finish; ``close`` renames it to
     ``<csv>`` and writes the run's summary to ``<csv without .csv>.json``. ``counters``
     (from ``info_counters`` on an info at reset) are the columns between ``return`` and
-    ``wall_time``, read from each finished episode's info."""
+    ``wall_time``, read from each finished episode's info. ``going_on``: (agent-steps,
+    wall seconds) of an interrupted run to go on with (``baselines.ppo_resume``): its
+    ``.part`` keeps the rows up to those agent-steps, and the wall clock goes on."""
 
-    def __init__(self, algorithm: str, csv_path: str, seed: int, args, counters: tuple[str, ...]):
+    def __init__(
+        self,
+        algorithm: str,
+        csv_path: str,
+        seed: int,
+        args,
+        counters: tuple[str, ...],
+        going_on: tuple[int, float] | None = None,
+    ):
         clashes = set(counters) & set(FIXED_COLUMNS)
         if clashes:
             raise ValueError(f"counters named like the log's own columns: {sorted(clashes)}")
@@ -226,13 +255,19 @@ class RunLog:
         self.path = Path(csv_path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.part = self.path.with_name(self.path.name + ".part")
+        self.algorithm, self.seed, self.args = algorithm, seed, args
+        self.start = time.perf_counter()
+        self.episodes = 0
+        if going_on is not None and self.part.is_file():
+            self.episodes = _keep_rows(self.part, going_on[0])
+            self.start -= going_on[1]
+            self.file = open(self.part, "a", newline="")
+            self.writer = csv.writer(self.file)
+            return
         self.file = open(self.part, "w", newline="")
         self.writer = csv.writer(self.file)
         self.writer.writerow([*FIXED_COLUMNS[:-1], *self.counters, FIXED_COLUMNS[-1]])
         self.file.flush()
-        self.algorithm, self.seed, self.args = algorithm, seed, args
-        self.start = time.perf_counter()
-        self.episodes = 0
 
     def episode(
         self,
@@ -322,3 +357,18 @@ def calibration(rounds: int = 20) -> float:
     for _ in range(rounds):
         a = (a @ a).clamp_(max=1.0)
     return rounds / (time.thread_time() - start)
+
+
+def threads_used(asked: int) -> dict:
+    """The threads torch and the ray kernel use at the end of a run; warns if torch's
+    differ from what the run asked for."""
+    import numba
+
+    used = {
+        "torch": torch.get_num_threads(),
+        "torch_asked": asked,
+        "kernel": numba.get_num_threads(),
+    }
+    if used["torch"] != asked:
+        warnings.warn(f"torch ran on {used['torch']} threads, not the {asked} asked", stacklevel=2)
+    return used

@@ -37,10 +37,8 @@ from __future__ import annotations
 
 import os
 import time
-import warnings
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 import torch
@@ -53,117 +51,21 @@ from baselines.common import (
     default_csv,
     input_channels,
     seed_everything,
+    threads_used,
 )
 from baselines.curriculum import Stage, curriculum_stages
 from baselines.networks import Agent
+from baselines.ppo_args import Args
 from baselines.ppo_episodes import Episodes
 from baselines.ppo_learner import Overlapped, Rollout, keep_freed_memory
 from baselines.ppo_memory import MemoryRollout
 from baselines.ppo_presets import with_preset
+from baselines.ppo_resume import Resumed, progress, prune
 from baselines.shaping import learning_reward
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.policies.checkpoint import SUFFIX, write_checkpoint
-
-
-@dataclass
-class Args:
-    scenario: str = "fruits_poisons_multi"
-    """Scenario to train on; any number of agents, all acting alike (observations that
-    differ are padded to one, with each agent's role)."""
-    no_channel: bool = False
-    """Play the scenario without its channel (``channel: null``): nobody speaks or hears.
-    The default log is then runs/ppo/<scenario>-no-channel/."""
-    seed: int = 0
-    """Seeds torch and numpy; world k of the batch is reset with seed * num_envs + k."""
-    total_timesteps: int = 1_000_000
-    """Agent-steps to train for, summed over all agents and worlds (steps that act)."""
-    csv: str = ""
-    """Where to write the episode log; empty means runs/ppo/<scenario>/seed_<seed>.csv."""
-    use_depth: bool = False
-    """Give the network the depth channel too (the paper's single-agent input is colour only)."""
-    num_envs: int = 4
-    """Worlds in the batched env; it has num_envs * agents slots."""
-    num_steps: int = 128
-    """Steps per slot in each rollout (CleanRL's 128)."""
-    learning_rate: float = 2.5e-4
-    """Adam learning rate, annealed linearly to 0 (CleanRL's default)."""
-    anneal_lr: bool = True
-    """Anneal the learning rate (CleanRL's default)."""
-    gamma: float = 0.99
-    """Discount factor (as the paper's baselines)."""
-    gae_lambda: float = 0.95
-    """GAE lambda (CleanRL's default)."""
-    num_minibatches: int = 4
-    """Minibatches per epoch (CleanRL's default)."""
-    update_epochs: int = 4
-    """Epochs over each rollout (CleanRL's default)."""
-    clip_coef: float = 0.2
-    """PPO clipping coefficient, also used for the value (CleanRL's default)."""
-    ent_coef: float = 0.01
-    """Entropy bonus weight (CleanRL's default)."""
-    vf_coef: float = 0.5
-    """Value loss weight (CleanRL's default)."""
-    max_grad_norm: float = 0.5
-    """Gradients are clipped to this global norm (CleanRL's default)."""
-    reward_scale: float = 0.1
-    """Rewards are multiplied by this for learning (an item is worth +-1); the log keeps
-    the unscaled returns."""
-    hidden: int = 128
-    """Units of the fully connected layer after the conv trunk (as A3C's)."""
-    network: Literal["strided", "paper"] = "strided"
-    """The conv trunk: "paper" is the paper's (stride 1, then MaxPool1D(2)); "strided"
-    strides its first two convolutions by 4 and 2 (as the Nature DQN's trunk does), about
-    6x less work per step for the same three layers' reach."""
-    checkpoint_every: int = 50
-    """Save a checkpoint every this many updates (0: only the final one)."""
-    tensorboard: bool = True
-    """Write TensorBoard events beside the CSV."""
-    torch_threads: int = 1
-    """Threads torch may use (checked at the end of the run; the JSON records it)."""
-    overlap: bool = False
-    """Collect the next rollout while the network updates on the last one, in a thread
-    of its own: the rollout is acted by the parameters from before that update (a policy
-    lag of one update, as APPO's), which the PPO ratio corrects for. With two cores, about
-    twice the agent-steps per second of wall time."""
-    shards: int = 1
-    """Processes the worlds are spread over (1: all in this process)."""
-    critic: Literal["local", "state"] = "local"
-    """What the value reads: "local", the agent's own observation (through the policy's
-    layers); "state", a centralised critic of its own on the world's global state and
-    which agent of the world the slot is (MAPPO)."""
-    preset: str = ""
-    """Named settings for a task (``baselines.ppo_presets``), applied to every option left
-    at its default; empty: none."""
-    team_reward: bool = False
-    """Every agent learns from its team's reward, the sum of its world's rewards (the log
-    keeps each agent's own return)."""
-    shaping: float = 0.0
-    """Weight of the potential-based shaping term (``baselines.shaping``); 0: none. The log
-    keeps the scenario's return."""
-    shaping_potential: Literal["auto", "delivery", "goal"] = "auto"
-    """What the shaping measures: "delivery", the object's way to its zone and the agent's
-    to the object; "goal", the whole way the agent still has to walk to a paying thing;
-    "auto", delivery where the scenario has deliveries, else goal."""
-    shaping_gamma: float = -1.0
-    """The shaping term's discount, ``W (shaping_gamma Phi(s') - Phi(s))``: below 0, the
-    learner's ``gamma`` (the optimal policies stay as they were); 1, the plain progress
-    towards the target each step, without the bonus ``(1 - gamma) |Phi|`` a step that the
-    learner's gamma pays for being far away."""
-    curriculum: str = ""
-    """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
-    their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""
-    memory: Literal["none", "gru"] = "none"
-    """The policy's recurrent core: "gru", a one-layer GRU of ``memory_size`` units after
-    the fully connected layer, its state carried through each episode and trained on whole
-    sequences of slots (``baselines.ppo_memory``; minibatches of slots, so at most
-    ``num_envs * agents`` of them); "none", a feed-forward policy."""
-    memory_size: int = 128
-    """Units of the recurrent core."""
-    frames: int = 1
-    """How many of its last observations the policy reads at once (a frame stack, the
-    first observation repeated at an episode's start); 1: the current one alone."""
 
 
 def batched_env(args: Args, stage: Stage | None = None):
@@ -205,8 +107,8 @@ def main(args: Args) -> dict:
     run = Training(args)
     if run.overlapped is not None:
         print("overlap: each rollout is acted by the policy of one update before", flush=True)
-    start, cpu_start = time.perf_counter(), cpu_seconds()
-    for iteration in range(1, run.iterations + 1):
+    start, cpu_start = run.started = time.perf_counter(), cpu_seconds()
+    for iteration in range(run.first_iteration, run.iterations + 1):
         run.iterate(iteration, start)
     return run.finish(start, cpu_start, cpu_start - setup_cpu, (load_start, calibrated))
 
@@ -220,15 +122,20 @@ class Training:
         self.stages = curriculum_stages(args.curriculum) if args.curriculum else []
         total_timesteps = sum(s.steps for s in self.stages) if self.stages else args.total_timesteps
         self.ends = np.cumsum([s.steps for s in self.stages])
-        self.stage = 0
-        self.env = env = batched_env(args, self.stages[0] if self.stages else None)
-        self.iterations = max(1, total_timesteps // (env.num_slots * args.num_steps))
         self.csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
         self.run_dir = self.csv_path.with_suffix("")
+        self.resumed = resumed = Resumed.find(args, self.run_dir) if args.resume else None
+        seed, self.stage = args.seed, 0
+        if resumed is not None:  # new generators and episodes from here on
+            seed, self.stage = resumed.seed(args.seed), resumed.stage(self.ends)
+            seed_everything(seed)
+            torch.set_num_threads(args.torch_threads)
+        self.env = env = batched_env(args, self.stages[self.stage] if self.stages else None)
+        self.iterations = max(1, total_timesteps // (env.num_slots * args.num_steps))
         # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
         # from their cache), the network and the optimiser (its first import of torch's
         # compiler takes a second or more).
-        self.observation, infos = env.reset(seed=args.seed * args.num_envs)
+        self.observation, infos = env.reset(seed=seed * args.num_envs)
         self.agent = agent = Agent(
             env.single_observation_space,
             env.single_action_space,
@@ -245,14 +152,12 @@ class Training:
         self.optimizer = torch.optim.Adam(
             agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True
         )
+        if resumed is not None:
+            resumed.load(agent, self.optimizer)
         # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
         counters = tuple(k for k in infos if k != "active" and infos[k].dtype.kind in "iuf")
-        self.log = RunLog("ppo", str(self.csv_path), args.seed, args, counters)
-        self.scalars = Scalars(self.run_dir if args.tensorboard else None)
         self.overlapped = (
-            Overlapped(agent, env, self.observation, args.num_steps, args.seed)
-            if args.overlap
-            else None
+            Overlapped(agent, env, self.observation, args.num_steps, seed) if args.overlap else None
         )
         self.rollout = (MemoryRollout if agent.remembers else Rollout)(
             agent, env, self.observation, args.num_steps
@@ -260,16 +165,32 @@ class Training:
         self.space = env.single_observation_space
         """The first stage's observations, which the checkpoints describe."""
         self.learn_from = learning_reward(args, env)
+        self._bookkeeping(counters)
+
+    def _bookkeeping(self, counters: tuple[str, ...]) -> None:
+        """The log, the scalars and the episodes' counts, from the start or from where the
+        resumed run stood; where the run begins (its update, its clock)."""
+        args, resumed = self.args, self.resumed
+        going_on = None if resumed is None else (resumed.agent_steps, resumed.wall_seconds)
+        self.log = RunLog("ppo", str(self.csv_path), args.seed, args, counters, going_on)
+        self.scalars = Scalars(self.run_dir if args.tensorboard else None)
         self.episodes = Episodes(
-            env.num_slots,
-            env.agents_per_world,
-            env.possible_agents,
+            self.env.num_slots,
+            self.env.agents_per_world,
+            self.env.possible_agents,
             counters,
             self.log,
             self.scalars,
         )
-        self.began = [0]
+        self.began = [0] if resumed is None else list(resumed.began)
         """The agent-step at which each stage of the curriculum began."""
+        self.first_iteration = 1 if resumed is None else resumed.update + 1
+        self.started = (time.perf_counter(), cpu_seconds())
+        """When and at what CPU time the timed run began (``main`` sets it)."""
+        if resumed is not None:
+            self.episodes.global_step = resumed.agent_steps
+            self.episodes.episodes = resumed.episodes
+            print(f"resumed from {resumed.path} at step={resumed.agent_steps}", flush=True)
 
     def next_stage(self) -> None:
         """The curriculum's next stage: its worlds, reset, and no episode under way."""
@@ -322,9 +243,13 @@ class Training:
             if overlapped is not None:
                 overlapped.wait()  # the checkpoint holds this iteration's update
             self.save(self.run_dir / f"update_{iteration:05d}{SUFFIX}", iteration)
+            prune(self.run_dir, args.keep_checkpoints)
 
     def save(self, path: Path, update: int) -> None:
-        args = self.args
+        args, (start, cpu_start), resumed = self.args, self.started, self.resumed
+        before = (0.0, 0.0) if resumed is None else (resumed.cpu_seconds, resumed.wall_seconds)
+        cpu, wall = before[0] + cpu_seconds() - cpu_start, before[1] + time.perf_counter() - start
+        resumed_at = [] if resumed is None else resumed.resumed_at
         write_checkpoint(
             path,
             self.agent,
@@ -340,6 +265,7 @@ class Training:
                 "args": asdict(args),
                 "update": update,
                 "agent_steps": self.episodes.global_step,
+                "progress": progress(self.episodes.episodes, cpu, wall, resumed_at, self.began),
             },
         )
 
@@ -355,8 +281,9 @@ class Training:
         self.save(self.csv_path.with_suffix(SUFFIX), self.iterations)
         self.scalars.close()
         self.env.close()
+        before = 0.0 if self.resumed is None else self.resumed.cpu_seconds
         machine = {
-            "cpu_seconds": round(cpu_seconds() - cpu_start, 2),
+            "cpu_seconds": round(before + cpu_seconds() - cpu_start, 2),
             "setup_cpu_seconds": round(setup_cpu, 2),
             "threads": threads_used(self.args.torch_threads),
             "policy_lag": 1 if overlapped is not None else 0,
@@ -364,6 +291,12 @@ class Training:
             "load_average_end": [round(x, 2) for x in os.getloadavg()],
             "calibration_matmuls_per_second": [round(calibrated, 1), round(calibration(), 1)],
         }
+        if self.resumed is not None:  # the earlier processes' share of the seconds above
+            machine["resumed_at"] = self.resumed.resumed_at
+            machine["earlier_seconds"] = {
+                "cpu": self.resumed.cpu_seconds,
+                "wall": self.resumed.wall_seconds,
+            }
         if self.stages:
             machine["curriculum"] = [
                 {"name": s.name, "began": step} for s, step in zip(self.stages, self.began)
@@ -377,21 +310,6 @@ class Training:
             flush=True,
         )
         return summary
-
-
-def threads_used(asked: int) -> dict:
-    """The threads torch and the ray kernel use at the end of the run; warns if torch's
-    differ from what the run asked for."""
-    import numba
-
-    used = {
-        "torch": torch.get_num_threads(),
-        "torch_asked": asked,
-        "kernel": numba.get_num_threads(),
-    }
-    if used["torch"] != asked:
-        warnings.warn(f"torch ran on {used['torch']} threads, not the {asked} asked", stacklevel=2)
-    return used
 
 
 if __name__ == "__main__":

@@ -45,7 +45,10 @@ agent-steps, the configuration's name and options, CPU and wall seconds, a calib
 (a fixed matrix product timed at the start of the run, ``machine.py``), the
 version of every scenario the task plays, package versions, commit and the machine's
 load; PPO on a scenario also its learning curve (``curves.py``). A seed
-whose file exists is skipped, so an interrupted run resumes. Results of different
+whose file exists is skipped, so an interrupted run resumes; a seed's PPO training
+interrupted on a scenario goes on from its newest checkpoint (every 100 updates:
+``baselines.ppo --resume``), and its file then names the agent-steps where it resumed
+and counts every process's seconds. Results of different
 versions of a task never mix: a seed file of another version than the task's today stops
 the run (``VersionMismatch``), and ``baselines.benchmark.table`` refuses a task whose
 files disagree. A file written before tasks carried versions counts as version 0 of every

@@ -35,10 +35,10 @@ def run_one(
     calibration = calibrate()
     load_before, cpu, wall = machine(), cpu_seconds(), time.perf_counter()
     budget, steps, checkpoint, learnt = 0, 0, "", None
-    search = None
+    search, resumed = None, {}
     if method == "ppo" and kind == "scenario":
         budget = task.budget
-        checkpoint, steps = train_scenario(name, seed, task, runs)
+        checkpoint, steps, resumed = train_scenario(name, seed, task, runs)
     if method == "ppo" and kind == "stream" and never_ending(name):
         from baselines import never_ending as endless
 
@@ -53,6 +53,7 @@ def run_one(
         score, episodes, parts, search = play_open_loop_task(name, kind, seed, config)
     else:
         score, episodes, parts = play_task(name, kind, method, seed, config, checkpoint)
+    earlier = resumed.get("earlier_seconds", {})
     record = {
         "task": name,
         "kind": kind,
@@ -66,13 +67,15 @@ def run_one(
         "budget": budget,
         "agent_steps": steps,
         "options": dict(task.ppo) if method == "ppo" else {},
-        "cpu_seconds": round(cpu_seconds() - cpu, 2),
-        "wall_seconds": round(time.perf_counter() - wall, 2),
+        "cpu_seconds": round(cpu_seconds() - cpu + earlier.get("cpu", 0.0), 2),
+        "wall_seconds": round(time.perf_counter() - wall + earlier.get("wall", 0.0), 2),
         "versions": versions(),
         "commit": commit(),
         "machine": {"before": load_before, "after": machine()},
     }
     record.update(run_fields(method, kind, tier, task, calibration, runs / name, seed, search))
+    if "resumed_at" in resumed:  # trained in more than one process
+        record["resumed_at"] = resumed["resumed_at"]
     return record
 
 

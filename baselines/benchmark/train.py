@@ -10,27 +10,44 @@ from pathlib import Path
 
 from baselines.benchmark.settings import TaskConfig, curriculum_path
 
+RESUME_EVERY = 100
+"""Updates between the checkpoints an interrupted run goes on from (200k agent-steps of
+16 one-agent worlds)."""
 
-def train_scenario(name: str, seed: int, task: TaskConfig, runs: Path) -> tuple[str, int]:
-    """``baselines.ppo`` on scenario ``name`` for the task's budget: (checkpoint, agent-steps)."""
+
+def train_scenario(name: str, seed: int, task: TaskConfig, runs: Path) -> tuple[str, int, dict]:
+    """``baselines.ppo`` on scenario ``name`` for the task's budget: (checkpoint,
+    agent-steps, and for a run that went on from an interrupted one, ``resumed_at`` and
+    the ``earlier_seconds`` of CPU and wall time its earlier processes spent)."""
     from baselines import ppo
+    from baselines.ppo_resume import prune
     from flatland_ma.policies.checkpoint import SUFFIX
 
     log = runs / name / "ppo" / f"seed_{seed}.csv"
     args = ppo_args(name, seed, task, log)
     summary = ppo.main(args)
-    return str(log.with_suffix(SUFFIX)), int(summary["steps"])
+    prune(log.with_suffix(""), -1)  # the run is over: nothing left to go on from
+    resumed = {k: summary[k] for k in ("resumed_at", "earlier_seconds") if k in summary}
+    return str(log.with_suffix(SUFFIX)), int(summary["steps"]), resumed
 
 
 def ppo_args(name: str, seed: int, task: TaskConfig, log: Path):
     """``baselines.ppo``'s arguments for a task: its options, the budget and the log. A
     preset's settings are applied here, beneath the task's own options, and the budget
     then set (a preset that names a length of run would otherwise replace a budget equal
-    to the learner's default); a curriculum's file is found from the checkout."""
+    to the learner's default); a curriculum's file is found from the checkout. The run
+    keeps its newest checkpoint of every ``RESUME_EVERY`` updates and goes on from it if
+    it was interrupted (``baselines.ppo_resume``)."""
     from baselines import ppo
     from baselines.ppo_presets import with_preset
 
-    options = {"tensorboard": False, "checkpoint_every": 0, **task.ppo}
+    options = {
+        "tensorboard": False,
+        "checkpoint_every": RESUME_EVERY,
+        "keep_checkpoints": 1,
+        "resume": True,
+        **task.ppo,
+    }
     if options.get("curriculum"):
         options["curriculum"] = str(curriculum_path(options["curriculum"]))
     args = with_preset(ppo.Args(scenario=name, seed=seed, csv=str(log), **options))

@@ -120,6 +120,21 @@ class A3CNetworkSpec(_Strict):
     arguments: A3CArguments
 
 
+Count = Annotated[int, Field(ge=0)]
+
+
+class Progress(_Strict):
+    """Where a training run stood at a checkpoint, for going on from it (``baselines.ppo
+    --resume``): its episodes, CPU and wall seconds so far, the agent-steps at which it
+    was resumed before, and at which each stage of its curriculum began."""
+
+    episodes: Count
+    cpu_seconds: Annotated[float, Field(ge=0, allow_inf_nan=False)]
+    wall_seconds: Annotated[float, Field(ge=0, allow_inf_nan=False)]
+    resumed_at: Annotated[list[Count], Field(max_length=100_000)] = []
+    began: Annotated[list[Count], Field(min_length=1, max_length=100_000)] = [0]
+
+
 class CheckpointSpec(_Strict):
     format: Literal["flatland_ma.policy"]
     version: Literal[2]
@@ -136,6 +151,7 @@ class CheckpointSpec(_Strict):
     args: dict[str, JsonValue] = {}
     update: Annotated[int, Field(ge=0)] | None = None
     agent_steps: Annotated[int, Field(ge=0)] | None = None
+    progress: Progress | None = None
     optimizer: JsonValue = None
 
     @model_validator(mode="after")

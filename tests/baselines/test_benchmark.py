@@ -556,3 +556,30 @@ def _slug(heading: str) -> str:
     """The anchor MyST gives a Markdown heading (lower case, words joined by hyphens)."""
     words = "".join(c for c in heading.lstrip("#").strip().lower() if c.isalnum() or c in " -")
     return "-".join(words.split())
+
+
+def test_an_interrupted_ppo_seed_goes_on_from_its_checkpoint(tmp_path, monkeypatch):
+    from baselines import ppo
+    from baselines.benchmark import train
+    from baselines.ppo_resume import periodic_checkpoints
+
+    config = tiny_config(tmp_path / "bench.yaml")
+    out, runs = tmp_path / "results", tmp_path / "runs"
+    monkeypatch.setattr(train, "RESUME_EVERY", 1)
+    iterate = ppo.Training.iterate
+
+    def stop_at_the_fourth(self, iteration, start):
+        if iteration == 4:
+            raise KeyboardInterrupt
+        iterate(self, iteration, start)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(ppo.Training, "iterate", stop_at_the_fourth)
+        with pytest.raises(KeyboardInterrupt):
+            run(config, TASK, ["ppo"], out, runs, tier="standard")
+    folder = runs / "standard" / "fruits_poisons" / "ppo" / "seed_0"
+    assert [p.name for p in periodic_checkpoints(folder)] == ["update_00003.safetensors"]
+    (written,) = run(config, TASK, ["ppo"], out, runs, tier="standard")
+    record = json.loads(written.read_text())
+    assert record["resumed_at"] == [48] and record["agent_steps"] == 64  # 3 of 4 updates
+    assert periodic_checkpoints(folder) == []  # nothing left to go on from

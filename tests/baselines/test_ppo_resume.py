@@ -1,0 +1,134 @@
+"""Going on with an interrupted ``baselines.ppo`` run (``--resume``): the newest periodic
+checkpoint's network, optimiser and counts, the log's rows up to it, the whole budget
+trained, the same run from the same checkpoint twice, other arguments refused, and the
+older periodic checkpoints pruned."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+torch = pytest.importorskip("torch")
+pytest.importorskip("safetensors")
+
+from baselines import ppo  # noqa: E402
+from baselines.ppo_resume import Resumed, periodic_checkpoints  # noqa: E402
+from flatland_ma.policies.checkpoint import load_checkpoint  # noqa: E402
+
+STEPS = 32
+"""Agent-steps per update: one world of one agent, 32 steps a rollout."""
+
+
+class Interrupted(Exception):
+    pass
+
+
+def _args(folder: Path, **options) -> ppo.Args:
+    base = ppo.Args(
+        scenario="fruits_poisons",
+        num_envs=1,
+        num_steps=STEPS,
+        total_timesteps=8 * STEPS,
+        checkpoint_every=2,
+        tensorboard=False,
+        csv=str(folder / "seed_0.csv"),
+    )
+    return replace(base, **options)
+
+
+def _interrupted(folder: Path, monkeypatch, at: int = 6, **options) -> ppo.Args:
+    """A run stopped as it began update ``at`` (its checkpoints of updates 2 and 4 on disk)."""
+    args = _args(folder, **options)
+    iterate = ppo.Training.iterate
+
+    def stop_at(self, iteration, start):
+        if iteration == at:
+            raise Interrupted
+        iterate(self, iteration, start)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(ppo.Training, "iterate", stop_at)
+        with pytest.raises(Interrupted):
+            ppo.main(args)
+    return args
+
+
+def _rows(path: Path) -> list[list[str]]:
+    with open(path, newline="") as f:
+        return [row[:-1] for row in csv.reader(f)]  # without the wall time
+
+
+def test_a_resumed_run_goes_on_from_its_newest_checkpoint_for_the_whole_budget(
+    tmp_path, monkeypatch
+):
+    args = _interrupted(tmp_path, monkeypatch)
+    part = tmp_path / "seed_0.csv.part"
+    checkpoint = periodic_checkpoints(tmp_path / "seed_0")[-1]
+    assert checkpoint.name.startswith("update_00004")
+    info, network, _ = load_checkpoint(checkpoint)
+    assert info["agent_steps"] == 4 * STEPS and info["progress"]["resumed_at"] == []
+    before = _rows(part)
+    summary = ppo.main(replace(args, resume=True))
+    assert summary["steps"] == 8 * STEPS and summary["resumed_at"] == [4 * STEPS]
+    assert summary["cpu_seconds"] >= info["progress"]["cpu_seconds"] > 0
+    after = _rows(tmp_path / "seed_0.csv")
+    kept = [row for row in before[1:] if int(row[2]) <= 4 * STEPS]
+    assert after[: 1 + len(kept)] == [before[0], *kept]  # the rows up to the checkpoint
+    assert all(int(row[2]) > 4 * STEPS for row in after[1 + len(kept) :])
+    episodes = [int(row[1]) for row in after[1:]]
+    assert episodes == list(range(len(episodes)))  # counted on, not from 0
+    # It started from the checkpoint's network: the final one moved on from it.
+    final, _, _ = load_checkpoint(tmp_path / "seed_0.safetensors")
+    assert final["update"] == 8 and final["progress"]["resumed_at"] == [4 * STEPS]
+    assert network is not None
+
+
+def test_resumed_twice_from_one_checkpoint_it_is_the_same_run(tmp_path, monkeypatch):
+    runs = []
+    first = tmp_path / "a"
+    _interrupted(first, monkeypatch)
+    second = tmp_path / "b"
+    shutil.copytree(first, second)
+    for folder in (first, second):
+        ppo.main(replace(_args(folder), resume=True))
+        weights = load_checkpoint(folder / "seed_0.safetensors")[2]["model"]
+        runs.append((_rows(folder / "seed_0.csv"), weights))
+    assert runs[0][0] == runs[1][0]
+    assert all(torch.equal(runs[0][1][k], runs[1][1][k]) for k in runs[0][1])
+
+
+def test_without_a_checkpoint_resume_starts_the_run_and_other_arguments_are_refused(
+    tmp_path, monkeypatch
+):
+    fresh = ppo.main(replace(_args(tmp_path / "fresh"), resume=True, total_timesteps=2 * STEPS))
+    assert "resumed_at" not in fresh and fresh["steps"] == 2 * STEPS
+    args = _interrupted(tmp_path, monkeypatch)
+    with pytest.raises(
+        ValueError, match=r"update_00004.*other arguments: ent_coef 0\.01 \(now 0\.02\)"
+    ):
+        ppo.main(replace(args, resume=True, ent_coef=0.02))
+    # Refused before anything changed: the log and the checkpoints are as they were.
+    assert (tmp_path / "seed_0.csv.part").is_file()
+    assert len(periodic_checkpoints(tmp_path / "seed_0")) == 2
+
+
+def test_only_the_newest_periodic_checkpoints_are_kept_when_asked(tmp_path):
+    ppo.main(_args(tmp_path, keep_checkpoints=1))
+    assert [p.name for p in periodic_checkpoints(tmp_path / "seed_0")] == [
+        "update_00008.safetensors"
+    ]
+    summary = json.loads((tmp_path / "seed_0.json").read_text())
+    assert summary["steps"] == 8 * STEPS
+
+
+def test_a_resumed_curriculum_goes_on_in_the_stage_under_way():
+    resumed = Resumed(Path("x"), 5, 250, 3, 1.0, 1.0, [250], [0, 200], {})
+    assert [resumed.stage(ends) for ends in ([200, 400], [300, 400], [100, 200, 400])] == [1, 0, 2]
+    assert resumed.seed(7) != resumed.seed(8) and resumed.seed(7) != replace(
+        resumed, update=6
+    ).seed(7)
