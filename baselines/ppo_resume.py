@@ -75,11 +75,13 @@ class Resumed:
         progress, saved = info.get("progress"), info.get("args") or {}
         if progress is None or state["optimizer"] is None or info.get("update") is None:
             raise ValueError(f"{path}: no optimiser state or progress to go on from")
-        ours = asdict(args)
-        keys = (set(ours) | set(saved)) - SAME_RUN_EXCEPT
-        differ = sorted(key for key in keys if saved.get(key) != ours.get(key))
+        ours, defaults = asdict(args), asdict(type(args)())
+        # An option newer than the checkpoint counts as left at its default there.
+        was = {**{k: v for k, v in defaults.items() if k not in saved}, **saved}
+        keys = (set(ours) | set(was)) - SAME_RUN_EXCEPT
+        differ = sorted(key for key in keys if was.get(key) != ours.get(key))
         if differ:
-            shown = ", ".join(f"{k} {saved.get(k)!r} (now {ours.get(k)!r})" for k in differ[:5])
+            shown = ", ".join(f"{k} {was.get(k)!r} (now {ours.get(k)!r})" for k in differ[:5])
             raise ValueError(f"{path}: written by a run of other arguments: {shown}")
         return cls(
             path,

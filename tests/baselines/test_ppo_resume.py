@@ -132,3 +132,22 @@ def test_a_resumed_curriculum_goes_on_in_the_stage_under_way():
     assert resumed.seed(7) != resumed.seed(8) and resumed.seed(7) != replace(
         resumed, update=6
     ).seed(7)
+
+
+def test_an_option_newer_than_the_checkpoint_counts_as_left_at_its_default(tmp_path, monkeypatch):
+    args = _interrupted(tmp_path, monkeypatch)
+    path = periodic_checkpoints(tmp_path / "seed_0")[-1]
+    from flatland_ma.policies.checkpoint import read_checkpoint
+
+    saved = read_checkpoint(path)["args"]
+    assert Resumed.find(args, tmp_path / "seed_0").update == 4
+    older = {k: v for k, v in saved.items() if k != "frames"}  # as if written before it
+    monkeypatch.setattr(
+        "baselines.ppo_resume.load_checkpoint",
+        lambda p: (lambda info, net, state: ({**info, "args": older}, net, state))(
+            *load_checkpoint(p)
+        ),
+    )
+    assert Resumed.find(args, tmp_path / "seed_0").update == 4
+    with pytest.raises(ValueError, match=r"frames 1 \(now 4\)"):
+        Resumed.find(replace(args, frames=4), tmp_path / "seed_0")
