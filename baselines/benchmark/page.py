@@ -23,13 +23,13 @@ def planned_text(tier: dict) -> str:
         f"The whole tier is {tier['planned_steps'] / 1e6:.3g}M agent-steps of PPO training "
         "(every budget times the seeds)"
     )
-    rate = tier["ppo_rate"]
-    if not rate:
+    hours = tier.get("planned_hours")
+    if not hours:
         return text + "."
-    hours = tier["planned_steps"] / rate / 3600
     return (
-        text + f"; at the {rate:.0f} agent-steps per CPU-second its committed PPO seeds "
-        f"averaged (training and scoring), about {hours:.1f} CPU-hours."
+        text + f": about {hours['whole']:.1f} CPU-hours, {hours['left']:.1f} of them still to "
+        "run, each task at the rate of its committed PPO seeds (agent-steps per CPU-second of "
+        "training and scoring) in this tier, else in the others, else the tier's pooled rate."
     )
 
 

@@ -118,8 +118,24 @@ def task_row(
     return row
 
 
-def build_tier(results: dict, config: BenchmarkConfig, tier: str, tasks) -> dict:
-    """One tier's rows and aggregate over tasks."""
+def task_rates(tiers: dict[str, dict]) -> dict[str, float]:
+    """Each task's PPO agent-steps per CPU-second (training and scoring) over its records
+    of every tier (``tiers``: each tier's results, as ``read_results`` gives them)."""
+    steps: dict[str, float] = {}
+    seconds: dict[str, float] = {}
+    for results in tiers.values():
+        for task, methods in results.items():
+            for r in methods.get("ppo", []):
+                steps[task] = steps.get(task, 0.0) + r["agent_steps"]
+                seconds[task] = seconds.get(task, 0.0) + r["cpu_seconds"]
+    return {t: steps[t] / seconds[t] for t in steps if steps[t] > 0 and seconds[t] > 0}
+
+
+def build_tier(
+    results: dict, config: BenchmarkConfig, tier: str, tasks, rates: dict | None = None
+) -> dict:
+    """One tier's rows and aggregate over tasks; ``rates`` (``task_rates``) price the
+    tier's training in CPU-hours, the whole and what is still to run."""
     level = config.tier(tier)
     for name, kind in tasks:
         check_current(name, kind, results.get(name, {}))
@@ -132,6 +148,7 @@ def build_tier(results: dict, config: BenchmarkConfig, tier: str, tasks) -> dict
     ppo = [r for methods in results.values() for r in methods.get("ppo", [])]
     planned = sum(r["budget"] * level.seeds for r in rows if r["learner"])
     rate = sum(r["agent_steps"] for r in ppo) / max(1e-9, sum(r["cpu_seconds"] for r in ppo))
+    hours = planned_hours(rows, level.seeds, rates or {}, rate if ppo else None)
     return {
         "tier": tier,
         "rows": rows,
@@ -140,10 +157,29 @@ def build_tier(results: dict, config: BenchmarkConfig, tier: str, tasks) -> dict
         "only": level.only,
         "planned_steps": planned,
         "ppo_rate": round(rate, 1) if ppo else None,
+        "planned_hours": hours,
         "ppo_seconds": round(sum(r["cpu_seconds"] for r in ppo), 1),
         "aggregate": aggregate,
         "half": sum(r["normalised"] is not None and r["normalised"]["iqm"] >= 0.5 for r in rows),
     }
+
+
+def planned_hours(rows: list, seeds: int, rates: dict, pooled: float | None) -> dict | None:
+    """The CPU-hours of the tier's PPO training, ``whole`` and ``left`` to run (the seeds
+    not yet written), each task at its own rate (``rates``: in this tier where it has
+    seeds in it, else in the others; the tier's pooled rate for a task with none); None if
+    no rate is known."""
+    whole = left = 0.0
+    for r in rows:
+        rate = rates.get(r["task"], pooled)
+        if not r["learner"]:
+            continue
+        if not rate:
+            return None
+        done = r["ppo"]["seeds"] if r["ppo"] else 0
+        whole += r["budget"] * seeds / rate / 3600
+        left += r["budget"] * max(0, seeds - done) / rate / 3600
+    return {"whole": round(whole, 4), "left": round(left, 4)}
 
 
 def read_reach(path: Path) -> dict | None:
@@ -157,11 +193,11 @@ def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None =
     ``reach.json`` beside ``root``, if there)."""
     tasks = tasks or list_tasks()
     tiers, records = {}, []
-    for tier in TIERS:
-        if tier not in config.tiers:
-            continue
-        results = read_results(root, tier)
-        tiers[tier] = build_tier(results, config, tier, tasks)
+    read = {tier: read_results(root, tier) for tier in TIERS if tier in config.tiers}
+    rates = task_rates(read)
+    for tier, results in read.items():  # a task's rate in the tier itself, where it has one
+        own = {**rates, **task_rates({tier: results})}
+        tiers[tier] = build_tier(results, config, tier, tasks, own)
         records += [
             r
             for methods in results.values()

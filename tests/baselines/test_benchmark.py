@@ -150,6 +150,11 @@ def test_normalisation_iqm_and_verdicts_on_made_up_numbers(tmp_path):
     assert summary["cpu_seconds"]["ppo"] == 60.0
     assert smoke["ppo_rate"] == 50.0  # 6 seeds of 500 agent-steps in 60 CPU seconds
     assert smoke["planned_steps"] == (500 + 500 + 32) * 2  # budgets (the tier's 2 seeds)
+    # Priced at each task's own rate (50 agent-steps per CPU-second for both that ran;
+    # key_door, not yet run, at the pooled rate): what is left is key_door's 2 seeds.
+    hours = smoke["planned_hours"]
+    assert hours["whole"] == pytest.approx((500 + 500 + 32) * 2 / 50 / 3600, abs=1e-4)
+    assert hours["left"] == pytest.approx(32 * 2 / 50 / 3600, abs=1e-4)
 
     page = render(summary)
     assert "no scale: scripted does not beat random" in page
@@ -583,3 +588,22 @@ def test_an_interrupted_ppo_seed_goes_on_from_its_checkpoint(tmp_path, monkeypat
     record = json.loads(written.read_text())
     assert record["resumed_at"] == [48] and record["agent_steps"] == 64  # 3 of 4 updates
     assert periodic_checkpoints(folder) == []  # nothing left to go on from
+
+
+def test_a_tier_is_priced_at_each_tasks_own_rate_from_any_tier():
+    from baselines.benchmark.summary import planned_hours, task_rates
+
+    record = {"agent_steps": 3600, "cpu_seconds": 10.0}
+    rates = task_rates({"standard": {"a": {"ppo": [record, record]}, "b": {"random": [record]}}})
+    assert rates == {"a": 360.0}  # PPO records only
+    rows = [
+        {"task": "a", "learner": True, "budget": 36_000, "ppo": {"seeds": 1}},
+        {"task": "b", "learner": True, "budget": 3_600, "ppo": None},
+        {"task": "c", "learner": False, "budget": 0, "ppo": None},
+    ]
+    # a: 3 seeds of 100 CPU-seconds, 1 done; b at the pooled 36 a second: 3 of 100 s.
+    assert planned_hours(rows, 3, rates, 36.0) == {
+        "whole": round(600 / 3600, 4),
+        "left": round(500 / 3600, 4),
+    }
+    assert planned_hours(rows, 3, {}, None) is None
