@@ -258,6 +258,8 @@ class RunLog:
         self.algorithm, self.seed, self.args = algorithm, seed, args
         self.start = time.perf_counter()
         self.episodes = 0
+        if going_on is not None and not self.part.exists() and self.path.is_file():
+            os.replace(self.path, self.part)  # a finished run's log, asked to go on
         if going_on is not None and self.part.is_file():
             self.episodes = _keep_rows(self.part, going_on[0])
             self.start -= going_on[1]

@@ -151,3 +151,12 @@ def test_an_option_newer_than_the_checkpoint_counts_as_left_at_its_default(tmp_p
     assert Resumed.find(args, tmp_path / "seed_0").update == 4
     with pytest.raises(ValueError, match=r"frames 1 \(now 4\)"):
         Resumed.find(replace(args, frames=4), tmp_path / "seed_0")
+
+
+def test_a_finished_run_asked_to_go_on_keeps_its_log(tmp_path):
+    args = _args(tmp_path)
+    first = ppo.main(args)
+    rows = _rows(tmp_path / "seed_0.csv")
+    again = ppo.main(replace(args, resume=True))  # its newest checkpoint is its last update
+    assert again["steps"] == first["steps"] == 8 * STEPS and again["resumed_at"] == [8 * STEPS]
+    assert _rows(tmp_path / "seed_0.csv") == rows
