@@ -92,6 +92,10 @@ class DeliveryPotential:
                 )
             )
 
+    def read(self, env) -> np.ndarray:
+        """Phi of each slot of ``env``, from its worlds' global state."""
+        return self(env.state())
+
     def __call__(self, states: np.ndarray) -> np.ndarray:
         """Phi of each slot, from the worlds' states (one row per world)."""
         out = np.empty((len(states), len(self.agents)))
@@ -138,6 +142,10 @@ class GoalPotential:
         """Each world's fields, by the doors shut to an agent (cleared with a new episode
         or new places of its paying things and keys)."""
         self._places: list[tuple | None] = [None] * len(worlds)
+
+    def read(self, env) -> np.ndarray:
+        """Phi of each slot (the worlds are read, not ``env``'s global state)."""
+        return self()
 
     def __call__(self, states: np.ndarray | None = None) -> np.ndarray:
         """Phi of each slot (``states`` is not read: the worlds are)."""
@@ -285,10 +293,10 @@ class Shaping:
         self.last: np.ndarray | None = None
 
     def start(self, env) -> None:
-        self.last = self.potential(env.state())
+        self.last = self.potential.read(env)
 
     def __call__(self, env, terminated: np.ndarray) -> np.ndarray:
-        now = self.potential(env.state())
+        now = self.potential.read(env)
         assert self.last is not None, "call start() after the env's reset"
         term = self.coef * (self.gamma * np.where(terminated, 0.0, now) - self.last)
         self.last = now
