@@ -142,6 +142,8 @@ class GoalPotential:
         """Each world's fields, by the doors shut to an agent (cleared with a new episode
         or new places of its paying things and keys)."""
         self._places: list[tuple | None] = [None] * len(worlds)
+        self._seen: list[tuple | None] = [None] * len(worlds)
+        """Each world's episode, its revision and its things when last read."""
 
     def read(self, env) -> np.ndarray:
         """Phi of each slot (the worlds are read, not ``env``'s global state)."""
@@ -212,7 +214,11 @@ class GoalPotential:
     def _things(self, w: int, episode) -> tuple:
         """World ``w``'s paying zones and items and its key items, as ``(rect, pays, key)``
         (``key``: the door key the item is, or None); the fields' cache is cleared when
-        they, or the episode, changed."""
+        they, or the episode, changed. Items are static: they go, come back or move only
+        through the world, which counts each change (``World.revision``)."""
+        seen = self._seen[w]
+        if seen is not None and seen[0] is episode and seen[1] == episode.world.revision:
+            return seen[2]
         things = tuple((z.rect, z.reward > 0, None) for z in episode.world.zones)
         for item in episode.world.of_type(Item):
             if item.visible and (item.reward > 0 or item.group.key):
@@ -223,6 +229,7 @@ class GoalPotential:
         if self._places[w] != places:
             self._places[w] = places
             self._fields[w].clear()
+        self._seen[w] = (episode, episode.world.revision, things)
         return things
 
     def _way(self, episode, base, things: tuple, shut: frozenset) -> np.ndarray:
