@@ -102,8 +102,14 @@ class Resumed:
         return sum(1 for end in ends[:-1] if self.agent_steps >= end)
 
     def load(self, agent, optimizer) -> None:
-        agent.load_state_dict(self.state["model"])
-        optimizer.load_state_dict(self.state["optimizer"])
+        """The checkpoint's network and optimiser state into this run's; ``ValueError``
+        naming the file if they do not fit (e.g. a scenario changed since: other spaces)."""
+        try:
+            agent.load_state_dict(self.state["model"])
+            optimizer.load_state_dict(self.state["optimizer"])
+        except (RuntimeError, ValueError, KeyError) as err:
+            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+            raise ValueError(f"{self.path}: does not fit this run's network: {first}") from None
 
 
 def progress(episodes: int, cpu: float, wall: float, resumed_at: list, began: list) -> dict:

@@ -17,6 +17,7 @@ torch = pytest.importorskip("torch")
 pytest.importorskip("safetensors")
 
 from baselines import ppo  # noqa: E402
+from baselines.networks import Agent  # noqa: E402
 from baselines.ppo_resume import Resumed, periodic_checkpoints  # noqa: E402
 from flatland_ma.policies.checkpoint import load_checkpoint  # noqa: E402
 
@@ -160,3 +161,25 @@ def test_a_finished_run_asked_to_go_on_keeps_its_log(tmp_path):
     again = ppo.main(replace(args, resume=True))  # its newest checkpoint is its last update
     assert again["steps"] == first["steps"] == 8 * STEPS and again["resumed_at"] == [8 * STEPS]
     assert _rows(tmp_path / "seed_0.csv") == rows
+
+
+def test_a_checkpoint_that_does_not_fit_the_network_is_refused_naming_it(tmp_path, monkeypatch):
+    args = _interrupted(tmp_path, monkeypatch)
+    found = Resumed.find(args, tmp_path / "seed_0")
+    assert found is not None
+    other = Agent(*_spaces(args), hidden=8)
+    optimizer = torch.optim.Adam(other.parameters())
+    with pytest.raises(
+        ValueError, match=r"update_00004\.safetensors: does not fit this run's network"
+    ):
+        found.load(other, optimizer)
+
+
+def _spaces(args):
+    from flatland_ma.envs.vector import BatchedParallelEnv
+
+    env = BatchedParallelEnv(args.scenario, num_worlds=1, pad=True)
+    try:
+        return env.single_observation_space, env.single_action_space
+    finally:
+        env.close()
