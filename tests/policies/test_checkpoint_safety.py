@@ -297,6 +297,22 @@ DESCRIPTIONS = {
         _set("optimizer", {"tensor": "optimizer/nothing"}),
         "optimizer: 'tensor'",
     ),
+    "progress_negative_episodes": (
+        _set("progress", {"episodes": -1, "cpu_seconds": 1.0, "wall_seconds": 1.0}),
+        "progress.episodes",
+    ),
+    "progress_seconds_as_text": (
+        _set("progress", {"episodes": 1, "cpu_seconds": "1.0", "wall_seconds": 1.0}),
+        "progress.cpu_seconds",
+    ),
+    "progress_unknown_entry": (
+        _set("progress", {"episodes": 1, "cpu_seconds": 1.0, "wall_seconds": 1.0, "x": 1}),
+        "progress.x",
+    ),
+    "progress_no_stages": (
+        _set("progress", {"episodes": 1, "cpu_seconds": 1.0, "wall_seconds": 1.0, "began": []}),
+        "progress.began",
+    ),
 }
 
 
