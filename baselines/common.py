@@ -60,18 +60,23 @@ def counters_text(info: dict, names: tuple[str, ...]) -> str:
     return " ".join(f"{name}={_cell(info[name])}" for name in names)
 
 
-def _keep_rows(part: Path, agent_steps: int) -> int:
-    """Rewrite the log ``part`` with its header and the rows of episodes that ended by
-    ``agent_steps`` (a row cut short by the interruption is dropped); the number of
-    episodes kept (the next episode's index)."""
-    with open(part, newline="") as f:
-        rows = list(csv.reader(f))
+def _keep_rows(source: Path, part: Path, agent_steps: int, header: list[str]) -> int:
+    """Write to ``part`` the header and the rows of the log ``source`` of episodes that
+    ended by ``agent_steps`` (a row cut short by the interruption is dropped); the number
+    of episodes kept (the next episode's index). ``ValueError`` naming the file, before
+    anything is written, if it is not a log of ``header``'s columns."""
+    try:
+        with open(source, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError, csv.Error) as err:
+        raise ValueError(f"{source}: not a log this run can go on with ({err})") from None
+    if not rows or rows[0] != header:
+        raise ValueError(f"{source}: not a log this run can go on with (other columns)")
 
     def ended_by(row: list[str]) -> bool:
         whole = len(row) == len(header) and row[-1].count(".") == 1  # wall_time: %.2f
         return whole and row[1].isdigit() and row[2].isdigit() and int(row[2]) <= agent_steps
 
-    header = rows[0]
     kept = [r for r in rows[1:] if ended_by(r)]
     with open(part, "w", newline="") as f:
         csv.writer(f).writerows([header, *kept])
@@ -258,17 +263,20 @@ class RunLog:
         self.algorithm, self.seed, self.args = algorithm, seed, args
         self.start = time.perf_counter()
         self.episodes = 0
-        if going_on is not None and not self.part.exists() and self.path.is_file():
-            os.replace(self.path, self.part)  # a finished run's log, asked to go on
-        if going_on is not None and self.part.is_file():
-            self.episodes = _keep_rows(self.part, going_on[0])
+        header = [*FIXED_COLUMNS[:-1], *self.counters, FIXED_COLUMNS[-1]]
+        # The interrupted run's log; or a finished run's, asked to go on.
+        source = self.part if self.part.is_file() else self.path
+        if going_on is not None and source.is_file():
+            self.episodes = _keep_rows(source, self.part, going_on[0], header)
+            if source != self.part:
+                source.unlink()
             self.start -= going_on[1]
             self.file = open(self.part, "a", newline="")
             self.writer = csv.writer(self.file)
             return
         self.file = open(self.part, "w", newline="")
         self.writer = csv.writer(self.file)
-        self.writer.writerow([*FIXED_COLUMNS[:-1], *self.counters, FIXED_COLUMNS[-1]])
+        self.writer.writerow(header)
         self.file.flush()
 
     def episode(

@@ -183,3 +183,16 @@ def _spaces(args):
         return env.single_observation_space, env.single_action_space
     finally:
         env.close()
+
+
+def test_a_log_that_is_not_the_runs_is_refused_and_left_as_it_was(tmp_path, monkeypatch):
+    args = _interrupted(tmp_path, monkeypatch)
+    part = tmp_path / "seed_0.csv.part"
+    part.write_bytes(b"\xff\xfe not a log")
+    with pytest.raises(ValueError, match=r"seed_0\.csv\.part: not a log this run can go on with"):
+        ppo.main(replace(args, resume=True))
+    assert part.read_bytes() == b"\xff\xfe not a log"
+    part.write_text("seed,episode,step,agent,other\n")
+    with pytest.raises(ValueError, match=r"\(other columns\)"):
+        ppo.main(replace(args, resume=True))
+    assert part.read_text() == "seed,episode,step,agent,other\n"
