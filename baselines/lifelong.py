@@ -31,6 +31,7 @@ reads them all.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import time
 from dataclasses import dataclass
@@ -256,15 +257,37 @@ def train(args: Args, agent, optimizer, env, steps: int, evaluator, every: int, 
     return step
 
 
+TAKEN = frozenset(
+    {
+        "seed", "num_envs", "num_steps", "learning_rate", "anneal_lr", "gamma", "gae_lambda",
+        "num_minibatches", "update_epochs", "clip_coef", "ent_coef", "vf_coef",
+        "max_grad_norm", "reward_scale", "hidden", "network", "use_depth", "torch_threads",
+        "tensorboard",
+    }
+)  # fmt: skip
+"""The options of ``baselines.ppo`` a life through a stream takes (it writes no
+TensorBoard events, so that one changes nothing); ``anneal_lr`` only at its default here,
+off: a life has no end to anneal to."""
+
+
+def untaken(args: Args) -> str:
+    """The options of ``baselines.ppo`` set on ``args`` that a life does not take, as
+    given on the command line (empty if none): every one away from this learner's default
+    (``anneal_lr`` on too)."""
+    defaults = Args()
+    wrong = [
+        f.name
+        for f in dataclasses.fields(PPOArgs)
+        if (f.name not in TAKEN or f.name == "anneal_lr")
+        and getattr(args, f.name) != getattr(defaults, f.name)
+    ]
+    return ", ".join("--" + name.replace("_", "-") for name in wrong)
+
+
 def main(args: Args) -> dict:
     from flatland_ma.lifelong import StreamBatchedEnv, load_stream, task_batched
 
-    given = {  # PPO's options that a life through a stream does not take
-        "--critic state": args.critic != "local",
-        "--shards": args.shards != 1,
-        "--no-channel": args.no_channel,
-    }
-    wrong = ", ".join(option for option, on in given.items() if on)
+    wrong = untaken(args)
     if wrong:
         raise SystemExit(f"baselines.lifelong does not take {wrong} (options of baselines.ppo)")
     seed_everything(args.seed)

@@ -759,4 +759,11 @@ def test_the_lifelong_learner_refuses_ppo_options_it_does_not_use():
         "baselines.lifelong", "--critic", "state", "--shards", "2", env=ENV, timeout=HANG_GUARD
     )
     assert result.returncode == 1
-    assert "does not take --critic state, --shards" in result.stderr
+    assert "does not take --shards, --critic (options of baselines.ppo)" in result.stderr
+    from baselines.lifelong import Args, untaken
+
+    assert untaken(Args(learning_rate=1e-3, num_envs=4, tensorboard=False)) == ""
+    # Each option a life would leave unused is named, not ignored.
+    assert untaken(Args(shaping=1.0, team_reward=True, memory="gru", anneal_lr=True)) == (
+        "--anneal-lr, --team-reward, --shaping, --memory"
+    )
