@@ -21,7 +21,9 @@ task (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its
 summed reward, and ``--shaping W``, a potential-based term for delivery and goal tasks
 (``baselines.shaping``); ``--curriculum FILE``, the tasks of a stream file in turn
 (``baselines.curriculum``); ``--memory gru`` and ``--frames K``, a policy with memory
-(``baselines.ppo_memory``). The log always keeps each agent's own, unshaped return.
+(``baselines.ppo_memory``); ``--resume``, go on with an interrupted run from its newest
+checkpoint (``baselines.ppo_resume``). The options are ``baselines.ppo_args.Args``. The
+log always keeps each agent's own, unshaped return.
 
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
 episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
