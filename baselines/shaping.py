@@ -322,6 +322,8 @@ def learning_reward(args, env):
     if not (args.team_reward or args.shaping):
         return None
     Shaping.check(args.shaping)
+    if args.team_reward:
+        check_shared(env)
     shaping = (
         Shaping(potential_of(env, args.shaping_potential), args.shaping, shaping_gamma(args))
         if args.shaping
@@ -336,6 +338,21 @@ def learning_reward(args, env):
         return out if shaping is None else out + shaping(env, terminated)
 
     return learn_from
+
+
+def check_shared(env) -> None:
+    """``ValueError`` where the team reward (a world's summed reward) would teach nothing:
+    a scenario whose teams score against each other (a zero-sum delivery), where the sum
+    is 0 for every agent."""
+    worlds = getattr(env, "worlds", None)
+    spec = worlds[0].spec if worlds else getattr(env, "spec", None)
+    against = [z.name for z in getattr(spec, "zones", ()) if z.zero_sum and z.team]
+    if against:
+        raise ValueError(
+            f"--team-reward sums every agent's reward in a world, but in {spec.source} the "
+            f"teams score against each other (zero-sum zones {', '.join(against)}): the sum "
+            "is 0 for every agent"
+        )
 
 
 def shaping_gamma(args) -> float:

@@ -93,6 +93,12 @@ def test_the_learning_reward_adds_team_and_shaping_terms_and_is_none_without_the
     with pytest.raises(ValueError, match="shaping must be"):
         learning_reward(Args(shaping=-1.0), env)
     env.close()
+    rivals = BatchedParallelEnv("tug_of_war", num_worlds=1, pad=True)
+    rivals.reset(seed=0)
+    with pytest.raises(ValueError, match="teams score against each other .*red_goal, blue_goal"):
+        learning_reward(Args(team_reward=True), rivals)
+    assert learning_reward(Args(shaping=1.0), rivals) is not None  # each agent's own reward
+    rivals.close()
 
 
 def test_a_run_records_its_cpu_time_and_the_load_and_logs_the_scenarios_return(tmp_path):
