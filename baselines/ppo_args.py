@@ -84,8 +84,9 @@ class Args:
     at its default; empty: none."""
     team_reward: bool = False
     """Every agent learns from its team's reward, the sum of its world's rewards (the log
-    keeps each agent's own return): every agent of a world counts as one team, so where
-    teams play against each other (``tug_of_war``'s zero-sum deliveries) the sum is 0."""
+    keeps each agent's own return): every agent of a world counts as one team, so it is
+    refused where teams score against each other (``tug_of_war``'s zero-sum deliveries),
+    where the sum is 0."""
     shaping: float = 0.0
     """Weight of the potential-based shaping term (``baselines.shaping``); 0: none. The log
     keeps the scenario's return."""
