@@ -90,6 +90,24 @@ def batched_env(args: Args, stage: Stage | None = None):
     return BatchedParallelEnv(args.scenario, num_worlds=args.num_envs, copy=False, **overrides)
 
 
+def learner_slots(args: Args, env) -> np.ndarray:
+    """Which of ``env``'s slots learn: every one, or those of the team ``args.learners``
+    (``ValueError`` naming the scenario's teams if it has no such team)."""
+    m = env.agents_per_world
+    if not args.learners:
+        return np.ones(env.num_slots, bool)
+    if args.curriculum:
+        raise ValueError("--learners trains one team of one scenario: not with --curriculum")
+    teams = [team.name for team in env.spec.teams or ()]
+    if args.learners not in teams:
+        raise ValueError(
+            f"--learners {args.learners}: {args.scenario} has no such team"
+            + (f" (its teams: {', '.join(teams)})" if teams else " (it has no teams)")
+        )
+    own = [env.spec.team_of(j).name == args.learners for j in range(m)]
+    return np.tile(np.array(own, bool), env.num_slots // m)
+
+
 def run_name(args: Args) -> str:
     """The run's folder under runs/ppo/: the scenario, and whether its channel was off."""
     return args.scenario + ("-no-channel" if args.no_channel else "")
@@ -133,7 +151,8 @@ class Training:
             seed_everything(seed)
             torch.set_num_threads(args.torch_threads)
         self.env = env = batched_env(args, self.stages[self.stage] if self.stages else None)
-        self.iterations = max(1, total_timesteps // (env.num_slots * args.num_steps))
+        learning = int(learner_slots(args, env).sum())  # the slots whose steps count
+        self.iterations = max(1, total_timesteps // (learning * args.num_steps))
         # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
         # from their cache), the network and the optimiser (its first import of torch's
         # compiler takes a second or more).
@@ -166,6 +185,10 @@ class Training:
         )
         self.space = env.single_observation_space
         """The first stage's observations, which the checkpoints describe."""
+        self.learns = learner_slots(args, env)
+        for rollout in [self.rollout, *(self.overlapped.rollouts if self.overlapped else [])]:
+            rollout.learns = self.learns
+            rollout.background = np.random.default_rng([seed, 1])
         self.learn_from = learning_reward(args, env)
         self._bookkeeping(counters)
 
@@ -184,6 +207,7 @@ class Training:
             self.log,
             self.scalars,
         )
+        self.episodes.logged = self.learns[: self.env.agents_per_world].tolist()
         self.began = [0] if resumed is None else list(resumed.began)
         """The agent-step at which each stage of the curriculum began."""
         self.first_iteration = 1 if resumed is None else resumed.update + 1
@@ -261,7 +285,8 @@ class Training:
             optimizer=self.optimizer.state_dict(),
             extra={
                 "algorithm": "ppo",
-                "trained_with": ["self"],  # self-play: every slot is this policy
+                # self-play: every slot is this policy, or its team beside random play
+                "trained_with": ["self", "random"] if args.learners else ["self"],
                 "overrides": {"channel": None} if args.no_channel else {},
                 "padded": self.env.padding is not None,
                 "args": asdict(args),

@@ -87,6 +87,10 @@ class Args:
     keeps each agent's own return): every agent of a world counts as one team, so it is
     refused where teams score against each other (``tug_of_war``'s zero-sum deliveries),
     where the sum is 0."""
+    learners: str = ""
+    """A team of the scenario whose agents alone learn; every other agent acts at random
+    (uniformly over its actions), as the benchmark scores a team against random play.
+    Empty: every agent learns."""
     shaping: float = 0.0
     """Weight of the potential-based shaping term (``baselines.shaping``); 0: none. The log
     keeps the scenario's return."""

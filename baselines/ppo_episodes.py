@@ -33,6 +33,8 @@ class Episodes:
         """Each slot's return and counters at its episode's end, until its world's ends."""
         self.episodes = 0
         self.global_step = 0
+        self.logged = [True] * agents_per_world
+        """Which agents of a world the log keeps (``--learners``: those that learn)."""
 
     def after_step(self, reward, terminated, done, infos, acted: int) -> None:
         m = self.agents_per_world
@@ -46,6 +48,8 @@ class Episodes:
             if (done[own] | ~infos["active"][own]).all():  # the world's episode is over
                 for j in range(m):
                     episode_return, info = self.finished.pop(w * m + j)
+                    if not self.logged[j]:
+                        continue
                     self.log.episode(
                         self.global_step, episode_return, info, self.names[j], self.episodes
                     )

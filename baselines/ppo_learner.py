@@ -156,6 +156,11 @@ class Rollout:
         self.env_seconds = 0.0
         self.generator: torch.Generator | None = None
         """Where the acting pass draws its actions from (torch's global one if None)."""
+        self.learns = np.ones(slots, bool)
+        """The slots that learn; the others act at random from ``background`` and are
+        left out of the update and of the agent-steps counted (``--learners``)."""
+        self.background = np.random.default_rng(0)
+        self._sizes = np.array(agent.sizes, np.int64)
 
     def collect(
         self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
@@ -170,7 +175,7 @@ class Rollout:
         for t in range(self.steps):
             for into, x in zip(stored, tree_leaves(observation)):
                 into[t] = x
-            self._acting[t] = self.next_acting
+            self._acting[t] = self.next_acting & self.learns
             state = None
             if self.states is not None:
                 self.states[t] = state = torch.from_numpy(slot_states(env))
@@ -178,6 +183,9 @@ class Rollout:
                 action, logprob, value = self.decide(agent, t, state)
             chosen = self._actions[t]
             chosen[:] = action.numpy()
+            others = ~self.learns
+            if others.any():
+                chosen[others] = self.background.integers(self._sizes, size=chosen[others].shape)
             self._logprobs[t], self._values[t] = logprob.numpy(), value.numpy()
             tick = time.perf_counter()
             observation, reward, terminated, truncated, infos = env.step(
@@ -188,7 +196,7 @@ class Rollout:
             learnt = reward if learn_from is None else learn_from(reward, terminated)
             self._rewards[t] = learnt * reward_scale
             self._ends[t], self._stops[t] = done, terminated
-            after_step(reward, terminated, done, infos, int(self.next_acting.sum()))
+            after_step(reward, terminated, done, infos, int(self._acting[t].sum()))
             # The env uses a slot's action next step unless it just finished or was inert.
             self.next_acting = infos["active"] & ~done
         next_state = None if self.states is None else torch.from_numpy(slot_states(env))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -381,3 +382,35 @@ def test_the_runner_is_led_to_the_door_the_scout_opens_and_the_scout_to_the_plat
     assert potential()[1] == pytest.approx(runner, abs=2 * episode.grid.cell / 100)
     assert runner < -(350 - 250) / 100  # the runner starts west of the door
     env.close()
+
+
+def test_with_learners_only_that_team_learns_and_the_others_act_at_random(tmp_path):
+    from baselines import ppo
+    from baselines.networks import Agent
+    from baselines.ppo_learner import Rollout
+
+    env = BatchedParallelEnv("tug_of_war", num_worlds=2, pad=True, copy=False)
+    observation, _ = env.reset(seed=0)
+    args = Args(scenario="tug_of_war", learners="red")
+    learns = ppo.learner_slots(args, env)
+    assert learns.tolist() == [True, True, False, False] * 2  # red_0, red_1, blue_0, blue_1
+    agent = Agent(env.single_observation_space, env.single_action_space, hidden=8)
+    rollout = Rollout(agent, env, observation, 8)
+    rollout.learns = learns
+    acted = []
+    rollout.collect(agent, env, observation, 0.1, lambda *a: acted.append(a[-1]))
+    assert not rollout.acting[:, ~learns].any() and rollout.acting[:, learns].all()
+    assert acted == [4] * 8  # the red agents' steps alone
+    sizes = np.array(agent.sizes)
+    others = rollout.actions[:, ~learns].numpy()
+    assert ((others >= 0) & (others < sizes)).all() and len(np.unique(others)) > 1
+    with pytest.raises(ValueError, match="no such team \\(its teams: red, blue\\)"):
+        ppo.learner_slots(replace(args, learners="green"), env)
+    env.close()
+    csv = tmp_path / "seed_0.csv"
+    options = dict(num_envs=1, num_steps=64, total_timesteps=128, tensorboard=False)
+    summary = ppo.main(replace(args, csv=str(csv), checkpoint_every=0, **options))
+    assert summary["steps"] == 128  # two rollouts of the two red agents
+    from flatland_ma.policies.checkpoint import read_checkpoint
+
+    assert read_checkpoint(csv.with_suffix(".safetensors"))["trained_with"] == ["self", "random"]
