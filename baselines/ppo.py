@@ -151,8 +151,9 @@ class Training:
             seed_everything(seed)
             torch.set_num_threads(args.torch_threads)
         self.env = env = batched_env(args, self.stages[self.stage] if self.stages else None)
-        learning = int(learner_slots(args, env).sum())  # the slots whose steps count
-        self.iterations = max(1, total_timesteps // (learning * args.num_steps))
+        self.learns = learner_slots(args, env)
+        """The slots that learn (every one but with ``--learners``): whose steps count."""
+        self.iterations = max(1, total_timesteps // (int(self.learns.sum()) * args.num_steps))
         # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
         # from their cache), the network and the optimiser (its first import of torch's
         # compiler takes a second or more).
@@ -185,7 +186,6 @@ class Training:
         )
         self.space = env.single_observation_space
         """The first stage's observations, which the checkpoints describe."""
-        self.learns = learner_slots(args, env)
         for rollout in [self.rollout, *(self.overlapped.rollouts if self.overlapped else [])]:
             rollout.learns = self.learns
             rollout.background = np.random.default_rng([seed, 1])

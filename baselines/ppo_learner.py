@@ -172,6 +172,7 @@ class Rollout:
         ``learn_from`` is None). Returns the last observation."""
         self.begin(env)
         stored = tree_leaves(self._observations)
+        others = ~self.learns if not self.learns.all() else None  # slots acting at random
         for t in range(self.steps):
             for into, x in zip(stored, tree_leaves(observation)):
                 into[t] = x
@@ -183,8 +184,7 @@ class Rollout:
                 action, logprob, value = self.decide(agent, t, state)
             chosen = self._actions[t]
             chosen[:] = action.numpy()
-            others = ~self.learns
-            if others.any():
+            if others is not None:
                 chosen[others] = self.background.integers(self._sizes, size=chosen[others].shape)
             self._logprobs[t], self._values[t] = logprob.numpy(), value.numpy()
             tick = time.perf_counter()

@@ -344,9 +344,8 @@ def check_shared(env) -> None:
     """``ValueError`` where the team reward (a world's summed reward) would teach nothing:
     a scenario whose teams score against each other (a zero-sum delivery), where the sum
     is 0 for every agent."""
-    worlds = getattr(env, "worlds", None)
-    spec = worlds[0].spec if worlds else getattr(env, "spec", None)
-    against = [z.name for z in getattr(spec, "zones", ()) if z.zero_sum and z.team]
+    spec = env.spec
+    against = [z.name for z in spec.zones if z.zero_sum and z.team]
     if against:
         raise ValueError(
             f"--team-reward sums every agent's reward in a world, but in {spec.source} the "
