@@ -11,6 +11,9 @@ Written for speed as well as for the maths, since the learner must keep up with 
 - freed memory stays with the process between minibatches (``keep_freed_memory``): glibc
   otherwise returns the large activations' pages to the system after each one and takes
   them back, page fault by page fault, for the next;
+- each minibatch's observations are gathered into buffers kept from one minibatch to the
+  next (``Gather``): a minibatch of maps can be larger than any block glibc keeps, and
+  would otherwise come in fresh pages every time;
 - ``Overlapped`` collects the next rollout with a copy of the policy while the network
   updates on the previous one, in a thread of its own (torch releases Python's lock while
   it computes): a policy lag of one update, as APPO's and Sample Factory's.
@@ -28,7 +31,7 @@ import gymnasium
 import numba as nb
 import numpy as np
 import torch
-from torch.utils._pytree import tree_leaves, tree_map
+from torch.utils._pytree import tree_flatten, tree_leaves, tree_map, tree_unflatten
 
 from baselines.networks import Agent
 from baselines.ppo_loss import descend
@@ -46,6 +49,27 @@ def keep_freed_memory() -> bool:
         return False
     M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
     return bool(mallopt(M_TRIM_THRESHOLD, 1 << 30)) and bool(mallopt(M_MMAP_THRESHOLD, 1 << 25))
+
+
+class Gather:
+    """Rows of a tree of tensors (rows first), gathered into buffers of this object's own
+    that the next call overwrites: ``gather(tree, index)`` is ``tree_map(lambda x:
+    x[index], tree)``, number for number, without a new allocation per call while
+    ``index`` is no longer than before. What it returns is valid until the next call."""
+
+    def __init__(self):
+        self._buffers: list[torch.Tensor] = []
+
+    def __call__(self, tree, index: torch.Tensor):
+        leaves, spec = tree_flatten(tree)
+        n = len(index)
+        if len(self._buffers) != len(leaves) or any(
+            b.shape[0] < n or b.shape[1:] != x.shape[1:] or b.dtype != x.dtype
+            for b, x in zip(self._buffers, leaves)
+        ):
+            self._buffers = [x.new_empty((n, *x.shape[1:])) for x in leaves]
+        rows = [torch.index_select(x, 0, index, out=b[:n]) for x, b in zip(leaves, self._buffers)]
+        return tree_unflatten(rows, spec)
 
 
 @nb.njit(cache=True)
@@ -86,11 +110,14 @@ def update(
     penalty=None,
     states=None,
     generator: torch.Generator | None = None,
+    gather: Gather | None = None,
 ) -> dict:
     """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
     mean losses. The loss is ``baselines.ppo_loss``'s [+ ``penalty()``], with V read
     from ``states`` where the critic is centralised. Minibatches are drawn
-    from ``generator`` (torch's global one if None)."""
+    from ``generator`` (torch's global one if None), their observations gathered by
+    ``gather`` (a new ``Gather`` if None)."""
+    gather = Gather() if gather is None else gather
     used = acting.reshape(-1).nonzero().squeeze(1)
     b_states = None if states is None else states.reshape(-1, states.shape[-1])
     b_x = tree_map(lambda x: x.reshape(-1, *x.shape[2:]), observations)
@@ -105,7 +132,7 @@ def update(
         order = used[torch.randperm(len(used), generator=generator)]
         # num_minibatches parts of (nearly) equal size: no leftover part of one entry.
         for index in order.tensor_split(args.num_minibatches):
-            x = tree_map(lambda x, index=index: x[index], b_x)
+            x = gather(b_x, index)
             state = None if b_states is None else b_states[index]
             _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
             old = (b_logprobs[index], b_advantages[index], b_returns[index], b_values[index])
@@ -161,6 +188,9 @@ class Rollout:
         left out of the update and of the agent-steps counted (``--learners``)."""
         self.background = np.random.default_rng(0)
         self._sizes = np.array(agent.sizes, np.int64)
+        self.gather = Gather()
+        """Where the update's minibatches of observations are gathered, kept from one
+        update to the next."""
 
     def collect(
         self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
@@ -250,6 +280,7 @@ class Rollout:
             penalty,
             self.states,
             generator,
+            self.gather,
         )
 
 

@@ -111,8 +111,9 @@ class MemoryRollout(Rollout):
     def stacks(self, steps: torch.Tensor, slots: torch.Tensor):
         """What the network read at each (step, slot) of these (n,) pairs: the
         observation, or with frames its stack (n, K, ...)."""
-        if self.index is None:
-            return each(lambda x: x[steps, slots], self.observations)
+        if self.index is None:  # rows of (T * slots): into the kept buffers
+            rows = steps * self.acting.shape[1] + slots
+            return self.gather(each(lambda x: x.flatten(0, 1), self.observations), rows)
         return gather_stacks(self.frames, self.index[steps, slots], slots)
 
     def minibatches(self, agent: Agent, parts: int, generator=None):

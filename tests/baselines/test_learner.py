@@ -20,7 +20,7 @@ from safetensors.torch import load_file
 from baselines import ppo
 from baselines.benchmark import learner_speed
 from baselines.networks import Agent
-from baselines.ppo_learner import Overlapped, gae
+from baselines.ppo_learner import Gather, Overlapped, gae
 from flatland_ma.envs.vector import BatchedParallelEnv
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -48,6 +48,30 @@ def test_compiled_gae_is_the_recursion():
     got = gae(rewards, values, ends, stops, next_value, 0.99, 0.95)
     want = reference_gae(rewards, values, ends, stops, next_value, 0.99, 0.95)
     torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5)
+
+
+def test_gather_gives_the_rows_indexed_in_buffers_it_keeps():
+    generator = torch.Generator().manual_seed(0)
+    tree = {
+        "map": torch.randint(0, 255, (40, 6, 6, 3), generator=generator, dtype=torch.uint8),
+        "camera": torch.randn((40, 8, 4), generator=generator),
+    }
+    gather = Gather()
+    first = torch.randperm(40, generator=generator)[:10]
+    got = gather(tree, first)
+    for key, x in tree.items():
+        assert got[key].dtype == x.dtype and torch.equal(got[key], x[first])
+    buffers = [got["map"].data_ptr(), got["camera"].data_ptr()]
+    shorter = torch.randperm(40, generator=generator)[:7]
+    again = gather(tree, shorter)
+    for key, x in tree.items():
+        assert torch.equal(again[key], x[shorter])
+    assert [again["map"].data_ptr(), again["camera"].data_ptr()] == buffers  # no new memory
+    longer = torch.arange(39, -1, -1)
+    last = gather(tree, longer)
+    for key, x in tree.items():
+        assert last[key].shape[0] == 40 and torch.equal(last[key], x.flip(0))
+    assert torch.equal(gather(tree["camera"], first), tree["camera"][first])  # a bare tensor
 
 
 @pytest.mark.parametrize("action_space", [spaces.Discrete(3), spaces.MultiDiscrete([3, 4])])
