@@ -170,12 +170,18 @@ class Actuator:
                 body.command_parts([float(a) for a in action[3 : 3 + self.n_controls]])
         body.drive()
 
+    def commands_like(self, other: Actuator) -> bool:
+        """Whether every action gives the same base command here as in ``other``."""
+        if self.mode != other.mode or self.words != other.words:
+            return False
+        return self.mode != "discrete" or np.array_equal(self._bases, other._bases)
+
     def base_commands(self, actions: Sequence) -> np.ndarray:
         """The base's command (forward, lateral, turn) of each checked action, one row
         each, as ``apply`` gives ``AgentBody.command`` (for ``motors.Motors``)."""
         if self.mode == "discrete":
             codes = [a[0] for a in actions] if self.words else actions
-            return self._bases[np.asarray(codes, np.intp)]
+            return self._bases.take(codes, axis=0)
         return np.array([a[:3] for a in actions], np.float64).reshape(-1, 3)
 
     def base_commands_of(self, actions: np.ndarray) -> np.ndarray:

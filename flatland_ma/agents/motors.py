@@ -1,18 +1,19 @@
-"""Many plain agents' motors at once: compiled code over pymunk's bodies.
+"""Plain agents' motors: compiled code over pymunk's bodies, the one way every env drives
+its plain bodies (a world's own, ``WorldLoop.act``, or every world's of a batch at once,
+``Worlds``).
 
 ``AgentBody.command`` and ``AgentBody.drive`` cost a dozen pymunk attribute calls per
 agent, more than the physics of its world. ``Motors`` does the same arithmetic for every
-agent of every world of a batch in two compiled loops that read and write the bodies'
-fields through ``flatland_ma.world.physics`` (its compiled tier), and hands out exactly
-the numbers the attribute path would: the same operations in the same order, Python's
-``min``/``max`` semantics, and ``math.hypot`` itself between the loops (numba's ``hypot``
-rounds differently from CPython's in about one case in 200). So the batched env's worlds
-move bit for bit as separate envs do.
+agent given in two compiled loops that read and write the bodies' fields through
+``flatland_ma.world.physics`` (its compiled tier), and hands out exactly the numbers the
+attribute path would: the same operations in the same order, Python's ``min``/``max``
+semantics, and ``math.hypot`` itself between the loops (numba's ``hypot`` rounds
+differently from CPython's in about one case in 200). So a world moves bit for bit the
+same whichever env steps it, and in whichever tier.
 
 Only plain bodies (no parts or links: a base and its motor) go this way, and only in the
-physics bridge's compiled tier; otherwise the batched env keeps the attribute path.
-``Poses`` reads many worlds' moving bodies' poses at once, in the compiled tier or a space
-at a time through ``pymunk.batch``.
+physics bridge's compiled tier (``motors_of``); bodies with parts, and every body in the
+slower tiers, are driven through their attributes (``Actuator.apply``).
 """
 
 from __future__ import annotations
@@ -22,11 +23,9 @@ import operator
 
 import numba as nb
 import numpy as np
-import pymunk
 
 from flatland_ma.agents.body import AgentBody
-from flatland_ma.sensors.lists import filled, put
-from flatland_ma.world import physics, poses
+from flatland_ma.world import physics
 from flatland_ma.world.physics import (
     angle_at,
     set_spin_at,
@@ -119,54 +118,32 @@ class Motors:
         self.limits[slot] = (body.max_speed, body.max_turn_rate, body.max_dv, body.max_dw)
 
     def drive(self, slots: np.ndarray, commands: np.ndarray, touching: np.ndarray) -> None:
-        bodies, limits = self.bodies[slots], self.limits[slots]
-        change = np.empty((len(slots), 2), np.float64)
-        _command(bodies, self.controls[slots], limits, commands, change)
-        norms = np.fromiter(
-            map(math.hypot, change[:, 0].tolist(), change[:, 1].tolist()),
-            np.float64,
-            len(slots),
-        )
-        _push(bodies, limits, touching, change, norms)
+        bodies, controls, limits = self.bodies[slots], self.controls[slots], self.limits[slots]
+        self._drive(bodies, controls, limits, commands, touching)
 
     def drive_all(self, commands: np.ndarray) -> None:
         """``drive`` of every slot, in slot order (each slot's body placed)."""
         touching = np.fromiter(map(_TOUCHING, self._keep), bool, self.slots)
-        self.drive(np.arange(self.slots), commands, touching)
-
-
-class Poses:
-    """Many worlds' moving bodies' poses, read back at once: ``place(w, pose, bodies)``
-    when world ``w`` gets a new episode (``pose``: its (bodies, 3) array, filled as
-    ``Geometry.refresh_poses`` fills it), ``read(which)`` for the worlds ``which``: in the
-    physics bridge's compiled tier in one compiled call, in its batch tier world by world
-    (``poses.poses_of``). ``fits()``: whether the tier in use reads poses."""
-
-    def __init__(self, worlds: int):
-        self._compiled = physics.TIER is physics.Tier.COMPILED
-        self._poses = filled(np.zeros((0, 3), np.float64), worlds)
-        self._bodies = filled(np.zeros(0, np.intp), worlds)
-        self._keep: list[list] = [[] for _ in range(worlds)]
-        """Each world's bodies: their structs live while they are referenced here."""
-        self._spaces: list[poses.SpacePoses | poses.AttributePoses | None] = [None] * worlds
+        self._drive(self.bodies, self.controls, self.limits, commands, touching)
 
     @staticmethod
-    def fits() -> bool:
-        return physics.TIER >= physics.Tier.BATCH
+    def _drive(bodies, controls, limits, commands, touching) -> None:
+        change = np.empty((len(bodies), 2), np.float64)
+        _command(bodies, controls, limits, commands, change)
+        norms = np.fromiter(
+            map(math.hypot, change[:, 0].tolist(), change[:, 1].tolist()),
+            np.float64,
+            len(bodies),
+        )
+        _push(bodies, limits, touching, change, norms)
 
-    def place(self, w: int, pose: np.ndarray, bodies: list[pymunk.Body]) -> None:
-        if not self._compiled:
-            self._spaces[w] = poses.poses_of(pose, bodies)
-            return
-        self._keep[w] = list(bodies)
-        put(self._poses, w, pose)
-        put(self._bodies, w, np.array([physics.address(b) for b in bodies], np.intp))
 
-    def read(self, which: np.ndarray) -> None:
-        if self._compiled:
-            physics.read_poses_at(self._poses, self._bodies, which)
-            return
-        for w in which.tolist():
-            space = self._spaces[w]
-            if space is not None:
-                space.read()
+def motors_of(bodies: list[AgentBody]) -> Motors | None:
+    """The motors of one world's ``bodies`` (slot j: body j), or None where one of them
+    cannot be driven so (``Motors.fits``)."""
+    if not all(Motors.fits(body) for body in bodies):
+        return None
+    motors = Motors(len(bodies))
+    for j, body in enumerate(bodies):
+        motors.place(j, body)
+    return motors

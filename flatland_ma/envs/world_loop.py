@@ -5,9 +5,10 @@ spaces) and what its episode is now (the built world, the live agents, the step 
 the generator), and steps it in public stages, in this order:
 
 1. ``act(checked)``: every live agent's body and parts are commanded with its checked
-   action and its words said on the channel; ``drove(checked)`` only says the words, for a
-   caller that drove the bodies itself (``Worlds`` drives every plain body of every world
-   in one compiled call);
+   action (plain bodies through ``agents.motors``, in one compiled call, where the physics
+   bridge's tier allows) and its words said on the channel; ``drove(checked)`` only says
+   the words, for a caller that drove the bodies itself (``Worlds`` drives every plain body
+   of every world in one such call);
 2. ``simulate()``: the physics, then the task's rules (everyone's rewards and
    terminations);
 3. the senses: ``running.sensors.observe()``, or ``running.sensors.prepare(...)`` when the
@@ -34,6 +35,7 @@ import numpy as np
 from gymnasium.utils import seeding
 
 from flatland_ma.agents.actuators import Actuator
+from flatland_ma.agents.motors import Motors, motors_of
 from flatland_ma.build.bodies import make_parts, make_sensors
 from flatland_ma.build.builder import Episode, build
 from flatland_ma.build.census import state_entities, world_state
@@ -74,6 +76,12 @@ class WorldLoop:
             for agent in spec.agent_specs
         ]
         """Each agent's actuator, in agent order: its action space, checks and commands."""
+        self._alike = all(a.commands_like(self.actuators[0]) for a in self.actuators)
+        """Whether every agent's actions give the same base commands (one call gives
+        them all)."""
+        self._motors: Motors | None = None
+        """The episode's plain bodies' motors (None: a body with parts, or a tier in
+        which compiled code cannot drive them)."""
         self.sensors = [
             make_sensors(agent, spec.channel, spec.n_agents) for agent in spec.agent_specs
         ]
@@ -213,6 +221,7 @@ class WorldLoop:
     def _start_episode(self) -> None:
         site = None if self.episode is None else self.episode.site
         self.episode = episode = build(self.spec, self.np_random, self.sensors, site)
+        self._motors = motors_of(episode.bodies)
         self._state_parts = state_entities(episode)
         episode.sensors.observe()
         self.num_steps = 0
@@ -233,10 +242,22 @@ class WorldLoop:
 
     def act(self, checked) -> None:
         """Command the live agents (``checked``: their checked actions, in agent order)."""
-        episode, actuators = self.running, self.actuators
-        bodies = episode.bodies
-        for i, action in zip(self.live, checked):
-            actuators[i].apply(bodies[i], action)
+        episode, actuators, motors = self.running, self.actuators, self._motors
+        bodies, live = episode.bodies, self.live
+        if motors is None:
+            for i, action in zip(live, checked):
+                actuators[i].apply(bodies[i], action)
+        elif live:
+            if self._alike:
+                commands = actuators[0].base_commands(checked)
+            else:
+                rows = [actuators[i].base_commands([a]) for i, a in zip(live, checked)]
+                commands = np.concatenate(rows)
+            if len(live) == len(bodies):
+                motors.drive_all(commands)
+            else:
+                touching = np.array([bodies[i].touching for i in live], bool)
+                motors.drive(np.array(live, np.intp), commands, touching)
         if episode.world.channel is not None:
             self._say(checked)
         self._log.append(checked)

@@ -24,11 +24,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from flatland_ma.agents.motors import Motors, Poses
+from flatland_ma.agents.motors import Motors
 from flatland_ma.envs.batched_steps import drive, whole_image
 from flatland_ma.envs.buffers import clear, put_column
 from flatland_ma.envs.slots import SlotBuffers, SlotSpaces
 from flatland_ma.envs.world_loop import WorldLoop
+from flatland_ma.sensors.body_poses import Poses
 from flatland_ma.sensors.sensor_suite import Sensors, WorldsKernel
 
 
@@ -66,9 +67,8 @@ class Worlds:
         plain = all(a.n_controls == 0 for a in first.actuators)
         self.motors = Motors(self.num_slots) if plain and Motors.available() else None
         """Every plain agent's motor, driven at once (None: bodies with parts)."""
-        self.poses = Poses(num_worlds) if Poses.fits() else None
-        """Every world's moving bodies' poses, read at once for the rays (None: each
-        world's sensors read their own)."""
+        self.poses = Poses(num_worlds)
+        """Every world's moving bodies' poses, read at once for the rays."""
         self.whole_image = self.padding is None and direct
         """Whether a world's observations are its cameras' rays as they are, agent after
         agent (see ``batched_steps.whole_image``)."""
@@ -127,9 +127,8 @@ class Worlds:
             self.kernel.set(w, episode.sensors, rows.reshape(-1, rows.shape[-1]))
         else:
             self.kernel.set(w, episode.sensors)
-        if self.poses is not None:
-            geometry = episode.sensors.geometry
-            self.poses.place(w, geometry.pose, geometry.bodies)
+        geometry = episode.sensors.geometry
+        self.poses.place(w, geometry.pose, geometry.bodies)
         if self.motors is not None:
             for j, body in enumerate(episode.bodies):
                 if not Motors.fits(body):
@@ -198,7 +197,6 @@ class Worlds:
         motors = self.motors
         if motors is not None:
             drive(motors, self.actuator, stepped, checked, whole)
-        reads_poses = self.poses is None
         outcomes = []
         for w, loop in stepped:
             if motors is None:
@@ -206,12 +204,11 @@ class Worlds:
             else:
                 loop.drove(checked[w])
             rewards, terminated = loop.simulate()
-            loop.running.sensors.prepare(reads_poses)
+            loop.running.sensors.prepare(poses=False)
             outcomes.append((w, loop, *loop.conclude(rewards, terminated)))
         if outcomes:
             which = np.array([outcome[0] for outcome in outcomes], np.int64)
-            if self.poses is not None:
-                self.poses.read(which)
+            self.poses.read(which)
             self.kernel.observe(which)
         return outcomes
 

@@ -2,9 +2,9 @@
 
 Packed once per reset from the world's entities by ``scene.pack_scene``. Shapes of moving
 bodies are kept in body coordinates with the index of their body's row in ``pose``;
-``refresh_poses`` reads the poses from pymunk each step (the one Python loop over moving
-bodies). Static shapes are kept in world coordinates; ``update_entity`` repacks one when
-it is moved or hidden.
+``refresh_poses`` reads the poses from pymunk each step (``body_poses.Poses``, as the
+batched env reads every world's at once). Static shapes are kept in world coordinates;
+``update_entity`` repacks one when it is moved or hidden.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pymunk
 
+from flatland_ma.sensors.body_poses import ONE, Poses, poses_of_world
 from flatland_ma.sensors.scene import Point, pack_scene, polygon_edges
 from flatland_ma.sensors.textures import KINDS
 from flatland_ma.world.entities import Entity
@@ -57,10 +58,14 @@ class Geometry:
         )
         self.entities = entities
         self.body_row = slot
+        self._poses: Poses | None = None
+        """The reader of ``pose``, made at the first ``refresh_poses`` (a batched env reads
+        every world's poses with one of its own instead)."""
 
     def refresh_poses(self) -> None:
-        if self.bodies:  # one assignment: numpy's per-element writes cost more than the reads
-            self.pose[:] = [(*body.position, body.angle) for body in self.bodies]
+        if self._poses is None:
+            self._poses = poses_of_world(self.pose, self.bodies)
+        self._poses.read(ONE)
 
     def update_entity(self, entity: Entity) -> None:
         """Repack a static entity after it moved or was shown or hidden."""

@@ -275,14 +275,20 @@ def set_velocity_at(where, vx, vy):
     body[_VX], body[_VY] = vx, vy
 
 
+@nb.njit(cache=True, inline="always")
+def read_poses_of(pose, own):
+    """``pose[i] = (x, y, angle)`` of the body at ``own[i]``: exactly
+    ``(*body.position, body.angle)``."""
+    for i in range(own.shape[0]):
+        body = _struct(own[i])
+        pose[i, 0] = body[_TA] * 0.0 + body[_TC] * 0.0 + body[_TX]
+        pose[i, 1] = body[_TA + 1] * 0.0 + body[_TC + 1] * 0.0 + body[_TY]
+        pose[i, 2] = body[_ANGLE]
+
+
 @nb.njit(cache=True)
 def read_poses_at(poses, bodies, which):
-    """``poses[w][i] = (x, y, angle)`` of the body at ``bodies[w][i]``, for each world
-    ``which`` (typed lists of arrays): exactly ``(*body.position, body.angle)``."""
+    """``read_poses_of(poses[w], bodies[w])`` for each world ``which`` (typed lists of
+    arrays)."""
     for k in range(which.shape[0]):
-        pose, own = poses[which[k]], bodies[which[k]]
-        for i in range(own.shape[0]):
-            body = _struct(own[i])
-            pose[i, 0] = body[_TA] * 0.0 + body[_TC] * 0.0 + body[_TX]
-            pose[i, 1] = body[_TA + 1] * 0.0 + body[_TC + 1] * 0.0 + body[_TY]
-            pose[i, 2] = body[_ANGLE]
+        read_poses_of(poses[which[k]], bodies[which[k]])
