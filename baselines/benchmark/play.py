@@ -132,9 +132,10 @@ def stream_parts(name: str, config: BenchmarkConfig):
 
 def play_task(name: str, kind: str, method: str, seed: int, config, checkpoint: str = ""):
     """(score, each episode's score, each stream task's score) of ``method`` on a task
-    (not ``open_loop``: ``play_open_loop_task``)."""
+    (not ``open_loop``: ``play_open_loop_task``). A checkpoint plays the scenario as it was
+    trained on it (its ``overrides``: ``baselines.ppo --no-channel``'s has no channel)."""
     if kind == "scenario":
-        env = FlatlandParallelEnv(name)
+        env = FlatlandParallelEnv(name, **trained_overrides(checkpoint))
         try:
             episodes = play_episodes(
                 env, policy_names(env, method, checkpoint), scenario_seeds(config), seed
@@ -152,6 +153,15 @@ def play_task(name: str, kind: str, method: str, seed: int, config, checkpoint: 
         parts[label] = float(np.mean(scores))
         episodes += scores
     return float(np.mean(list(parts.values()))), episodes, parts
+
+
+def trained_overrides(checkpoint: str) -> dict:
+    """The scenario overrides a checkpoint was trained with (none without one)."""
+    if not checkpoint:
+        return {}
+    from flatland_ma.policies.checkpoint import read_checkpoint
+
+    return dict(read_checkpoint(checkpoint).get("overrides") or {})
 
 
 def play_open_loop_task(name: str, kind: str, seed: int, config):

@@ -15,6 +15,7 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("tyro")
 
+from baselines.benchmark import play  # noqa: E402
 from baselines.benchmark.levels import LEVELS_OUT, read_levels, record, render_levels  # noqa: E402
 from baselines.benchmark.page import render  # noqa: E402
 from baselines.benchmark.records import OUT, result_path, write_record  # noqa: E402
@@ -353,6 +354,25 @@ def test_a_tier_with_a_task_list_trains_only_those(tmp_path):
     assert [p.relative_to(tmp_path / "results").as_posix() for p in written] == [
         "maze_goal/ppo/certificate/seed_0.json"
     ]
+
+
+def test_a_run_without_the_channel_is_scored_without_it(tmp_path):
+    """signal_maps' follower hears the signaller: a --no-channel run's checkpoint has no
+    hearing, and is played in the scenario as it was trained (its ``overrides``)."""
+    path = tmp_path / "bench.yaml"
+    path.write_text(
+        "seeds: 1\nepisodes: 1\ntiers:\n  smoke: {default: {budget: 32, name: deaf, ppo: "
+        "{num_envs: 1, num_steps: 16, num_minibatches: 2, update_epochs: 1, hidden: 16, "
+        "no_channel: true}}}\n",
+        encoding="utf-8",
+    )
+    out, runs = tmp_path / "results", tmp_path / "runs"
+    run(load_config(path), [("signal_maps", "scenario")], ["ppo"], out, runs)
+    record = json.loads(result_path(out, "signal_maps", "ppo", 0).read_text())
+    assert record["options"]["no_channel"] is True and len(record["episodes"]) == 1
+    checkpoint = runs / "signal_maps" / "ppo" / "seed_0.safetensors"
+    assert play.trained_overrides(str(checkpoint)) == {"channel": None}
+    assert play.trained_overrides("") == {}
 
 
 def test_a_preset_does_not_replace_the_budget(tmp_path):
