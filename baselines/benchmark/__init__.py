@@ -31,7 +31,9 @@ training episodes, ``baselines.open_loop``) and ``ppo``: ``baselines.ppo`` on a 
 ``baselines.lifelong --method finetune`` through a stream of tasks and
 ``baselines.never_ending`` through the never-ending one, for the task's budget of
 agent-steps (``baselines/benchmark/settings.yaml``), then the final checkpoint is scored
-(a stream of tasks: by its learner's last evaluation block).
+(a stream of tasks: by its learner's last evaluation block); ``ppo_no_channel``, the
+channel's ablation on every scenario with a channel: ``baselines.ppo`` in the task's
+configuration of the tier with ``--no-channel``, scored without the channel too.
 
 PPO runs in tiers (``--tier``; ``settings.yaml``, read by ``config.py``): ``smoke`` (100k
 agent-steps x 3 seeds, regressions only), ``standard`` (1M x 5 seeds, every task in the best shipped
@@ -40,7 +42,7 @@ settings list). Random, scripted and open-loop play do not depend on a budget: t
 results serve every tier.
 
 Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (a tier other than smoke:
-``<out>/<task>/ppo/<tier>/seed_<k>.json``): the score, each episode's, the budget,
+``<out>/<task>/<method>/<tier>/seed_<k>.json`` for PPO and its ablation): the score, each episode's, the budget,
 agent-steps, the configuration's name and options, CPU and wall seconds, a calibration
 (a fixed matrix product timed at the start of the run, ``machine.py``), the
 version of every scenario the task plays, package versions, commit and the machine's

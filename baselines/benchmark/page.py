@@ -10,6 +10,7 @@ from baselines.benchmark.levels import render_levels
 from baselines.benchmark.reach import table as reach_table
 from baselines.benchmark.summary import VERDICTS
 from baselines.benchmark.tables import (
+    ablation_table,
     figure_text,
     markdown_table,
     reference_table,
@@ -69,6 +70,7 @@ def tier_section(tier: dict, summary: dict) -> list[str]:
     return [
         *tier_figures(tier),
         *tier_tables(tier),
+        *tier_ablations(tier),
         *tier_gaps(tier, summary),
         *tier_runs(tier),
         "",
@@ -135,6 +137,24 @@ def tier_tables(tier: dict) -> list[str]:
         lines += table(shown, tier["seeds"]) if shown else [f"No {kind} in this tier."]
         lines.append("")
     return lines
+
+
+def tier_ablations(tier: dict) -> list[str]:
+    """PPO against its own configuration without the channel, where a task has one."""
+    shown = [r for r in tier["rows"] if r["no_channel_learner"] or r["ppo_no_channel"]]
+    if not shown:
+        return []
+    return [
+        f"### Without the channel ({tier['tier']})",
+        "",
+        "PPO in the same configuration, trained and scored without the scenario's channel "
+        "(`baselines.ppo --no-channel`): PPO has learnt to use the channel where its "
+        "interval lies above this one's (raw scores; **no** where it lies below, **not "
+        "shown** where they overlap).",
+        "",
+        *ablation_table(shown, tier["seeds"]),
+        "",
+    ]
 
 
 def tier_gaps(tier: dict, summary: dict) -> list[str]:
@@ -266,6 +286,10 @@ def measured_text(summary: dict) -> list[str]:
         "the stream's life scaled to the budget, scored by its last evaluation block; "
         "through the never-ending stream, the same learner for the budget "
         "(`baselines/never_ending.py`), its checkpoint then scored as the other methods are.",
+        "- The channel's ablation (`ppo_no_channel`, on the scenarios with a channel): PPO in "
+        "the task's configuration of the tier, trained and scored without the channel "
+        "(`baselines.ppo --no-channel`), the same seeds; PPO has learnt to use the channel "
+        "where its interval lies above the ablation's.",
         "- Tiers: " + "; ".join(f"**{t}**: {TIER_TEXT[t]}" for t in tiers) + ".",
         "- Figures: interquartile mean over seeds (95% stratified bootstrap interval). "
         "Normalised: random play 0, scripted play 1 (the means of their seeds). PPO beats "

@@ -31,14 +31,14 @@ def run_one(
 ) -> dict:
     """Play (and for PPO first train) one seed of one method on one task: its record
     (PPO's in ``tier``, training under ``runs``)."""
-    task = config.task(name, tier)
+    task = config.task(name, tier, method)
     calibration = calibrate()
     load_before, cpu, wall = machine(), cpu_seconds(), time.perf_counter()
     budget, steps, checkpoint, learnt = 0, 0, "", None
     search, resumed = None, {}
-    if method == "ppo" and kind == "scenario":
+    if method in LEARNED and kind == "scenario":
         budget = task.budget
-        checkpoint, steps, resumed = train_scenario(name, seed, task, runs)
+        checkpoint, steps, resumed = train_scenario(name, seed, task, runs, method)
     if method == "ppo" and kind == "stream" and never_ending(name):
         from baselines import never_ending as endless
 
@@ -66,7 +66,7 @@ def run_one(
         "eval_episodes": config.episodes,
         "budget": budget,
         "agent_steps": steps,
-        "options": dict(task.ppo) if method == "ppo" else {},
+        "options": dict(task.ppo) if method in LEARNED else {},
         "cpu_seconds": round(cpu_seconds() - cpu + earlier.get("cpu", 0.0), 2),
         "wall_seconds": round(time.perf_counter() - wall + earlier.get("wall", 0.0), 2),
         "versions": versions(),
@@ -87,8 +87,8 @@ def run_fields(method, kind, tier, task, calibration, runs: Path, seed: int, sea
     if method in LEARNED:
         out["tier"] = tier
         out["configuration"] = task.name
-    if method == "ppo" and kind == "scenario":
-        out["curve"] = seed_curve(runs / "ppo" / f"seed_{seed}.csv", task.budget)
+    if method in LEARNED and kind == "scenario":
+        out["curve"] = seed_curve(runs / method / f"seed_{seed}.csv", task.budget)
     if search is not None:
         out["open_loop"] = search
     return out
@@ -120,10 +120,11 @@ def run(
             for seed in range(level.seeds):
                 path = result_path(out, name, method, seed, tier)
                 if path.exists():
-                    check_configuration(path, level.task(name).name)
+                    check_configuration(path, level.task(name, method).name)
     for method in methods:
         for name, kind in tasks:
-            if method == "ppo" and not (ppo_possible(name, kind) and level.runs(name)):
+            learnt = method in LEARNED
+            if learnt and not (ppo_possible(name, kind, method) and level.runs(name)):
                 continue
             seeds = level.seeds if method in LEARNED else config.seeds
             if method == "scripted":

@@ -14,12 +14,17 @@ from typing import Annotated, Any, Literal
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-METHODS = ("random", "scripted", "open_loop", "ppo")
+METHODS = ("random", "scripted", "open_loop", "ppo", "ppo_no_channel")
 """The methods, in the order ``make benchmark`` runs them (the cheap ones first)."""
 
-LEARNED = frozenset({"ppo"})
+LEARNED = frozenset({"ppo", "ppo_no_channel"})
 """Methods whose results belong to a tier (a budget of training); the others play the same
 way in every tier, and their results serve every tier."""
+
+NO_CHANNEL = "ppo_no_channel"
+"""The channel's ablation: PPO in the task's own configuration of the tier, trained and
+scored without the scenario's channel (``baselines.ppo --no-channel``), on every scenario
+that has one: what PPO makes of the channel is PPO's score above this."""
 
 TIERS = ("smoke", "standard", "certificate")
 """The tiers, in the order of their budgets (the page's order)."""
@@ -69,15 +74,24 @@ class TierConfig(Strict):
     """Every task's PPO, unless ``tasks`` says otherwise."""
     tasks: dict[str, TaskOverride] = {}
 
-    def task(self, name: str) -> TaskConfig:
+    def task(self, name: str, method: str = "ppo") -> TaskConfig:
+        """PPO's configuration on task ``name`` (``NO_CHANNEL``: the same without the
+        scenario's channel)."""
         override = self.tasks.get(name)
-        if override is None:
-            return self.default
-        return TaskConfig(
-            budget=override.budget or self.default.budget,
-            name=override.name or self.default.name,
-            ppo={**self.default.ppo, **override.ppo},
-        )
+        task = self.default
+        if override is not None:
+            task = TaskConfig(
+                budget=override.budget or self.default.budget,
+                name=override.name or self.default.name,
+                ppo={**self.default.ppo, **override.ppo},
+            )
+        if method == NO_CHANNEL:
+            return TaskConfig(
+                budget=task.budget,
+                name=f"{task.name}, without the channel",
+                ppo={**task.ppo, "no_channel": True},
+            )
+        return task
 
     def runs(self, name: str) -> bool:
         """Whether the tier trains PPO on task ``name``."""
@@ -115,8 +129,8 @@ class BenchmarkConfig(Strict):
             )
         return self.tiers[name]  # type: ignore[index]
 
-    def task(self, name: str, tier: str = "smoke") -> TaskConfig:
-        return self.tier(tier).task(name)
+    def task(self, name: str, tier: str = "smoke", method: str = "ppo") -> TaskConfig:
+        return self.tier(tier).task(name, method)
 
 
 def _check_options(config: BenchmarkConfig, source: str) -> None:

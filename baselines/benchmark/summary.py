@@ -15,7 +15,7 @@ from baselines.benchmark.levels import read_levels
 from baselines.benchmark.play import list_tasks
 from baselines.benchmark.reach import REACH
 from baselines.benchmark.records import check_current, read_results
-from baselines.benchmark.settings import LEARNED, METHODS, TIERS, BenchmarkConfig
+from baselines.benchmark.settings import LEARNED, METHODS, NO_CHANNEL, TIERS, BenchmarkConfig
 from baselines.benchmark.train import ppo_possible
 from flatland_ma.evaluation.stats import normalise, stratified_bootstrap
 
@@ -57,9 +57,10 @@ def verdict(normalised: dict | None) -> str:
 
 
 def against_open_loop(ppo: dict | None, open_loop: dict | None) -> str:
-    """Whether PPO beats open-loop play on a task, by their intervals over seeds (raw
-    scores): "yes" (PPO's lower bound above open-loop's upper), "no" (PPO's upper bound
-    below open-loop's lower) or "not shown" (they overlap); "" if either is missing."""
+    """Whether PPO beats open-loop play (or any other method) on a task, by their
+    intervals over seeds (raw scores): "yes" (PPO's lower bound above open-loop's upper),
+    "no" (PPO's upper bound below open-loop's lower) or "not shown" (they overlap); "" if
+    either is missing."""
     if ppo is None or open_loop is None:
         return ""
     if ppo["low"] > open_loop["high"]:
@@ -115,7 +116,26 @@ def task_row(
             row["open_loop_normalised"] = interval(scores)
     row["verdict"] = verdict(row["normalised"])
     row["beats_open_loop"] = against_open_loop(row["ppo"], row["open_loop"])
+    row.update(ablation(name, kind, methods, config, tier))
     return row
+
+
+def ablation(name: str, kind: str, methods: dict[str, list[dict]], config, tier: str) -> dict:
+    """The channel's ablation on a task (``NO_CHANNEL``): whether the tier runs it there,
+    its configuration, its seeds' CPU seconds, and whether PPO with the channel beats it
+    (``against_open_loop``'s answers)."""
+    records = methods.get(NO_CHANNEL, [])
+    return {
+        "no_channel_learner": ppo_possible(name, kind, NO_CHANNEL) and config.tier(tier).runs(name),
+        "no_channel_configuration": records[0]["configuration"]
+        if records
+        else config.task(name, tier, NO_CHANNEL).name,
+        "no_channel_cpu_seconds": [r["cpu_seconds"] for r in records],
+        "channel_helps": against_open_loop(
+            interval([r["score"] for r in methods["ppo"]]) if methods.get("ppo") else None,
+            interval([r["score"] for r in records]) if records else None,
+        ),
+    }
 
 
 def task_rates(tiers: dict[str, dict]) -> dict[str, float]:

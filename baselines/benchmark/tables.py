@@ -92,6 +92,30 @@ def table(rows: list[dict], seeds: int) -> list[str]:
     return markdown_table(headers, out)
 
 
+def ablation_table(rows: list[dict], seeds: int) -> list[str]:
+    """PPO with and without the channel, on a tier's tasks that have one."""
+    headers = ["Task", "PPO", "PPO without the channel", "The channel helps"]
+    headers += ["Configuration without it", "CPU per seed"]
+    out = []
+    for r in rows:
+        ablated = r["ppo_no_channel"]
+        done = ablated["seeds"] if ablated else 0
+        cpu = r["no_channel_cpu_seconds"]
+        out.append(
+            [
+                f"`{r['task']}`",
+                ppo_cell(r, seeds),
+                figure_text(ablated) + (f", {done} of {seeds} seeds" if done < seeds else "")
+                if ablated
+                else "not yet run",
+                open_loop_cell({"beats_open_loop": r["channel_helps"]}),
+                r["no_channel_configuration"],
+                f"{sum(cpu) / len(cpu) / 60:.1f} min" if cpu else "",
+            ]
+        )
+    return markdown_table(headers, out)
+
+
 def runs_table(rows: list[dict]) -> list[str]:
     """Every PPO seed of a tier: its cost, the machine's load and calibration."""
     out = []

@@ -8,22 +8,25 @@ import csv
 import dataclasses
 from pathlib import Path
 
-from baselines.benchmark.settings import TaskConfig, curriculum_path
+from baselines.benchmark.settings import NO_CHANNEL, TaskConfig, curriculum_path
 
 RESUME_EVERY = 100
 """Updates between the checkpoints an interrupted run goes on from (200k agent-steps of
 16 one-agent worlds)."""
 
 
-def train_scenario(name: str, seed: int, task: TaskConfig, runs: Path) -> tuple[str, int, dict]:
-    """``baselines.ppo`` on scenario ``name`` for the task's budget: (checkpoint,
-    agent-steps, and for a run that went on from an interrupted one, ``resumed_at`` and
-    the ``earlier_seconds`` of CPU and wall time its earlier processes spent)."""
+def train_scenario(
+    name: str, seed: int, task: TaskConfig, runs: Path, method: str = "ppo"
+) -> tuple[str, int, dict]:
+    """``baselines.ppo`` on scenario ``name`` for the task's budget, its log and checkpoints
+    under ``runs/<name>/<method>/``: (checkpoint, agent-steps, and for a run that went on
+    from an interrupted one, ``resumed_at`` and the ``earlier_seconds`` of CPU and wall
+    time its earlier processes spent)."""
     from baselines import ppo
     from baselines.ppo_resume import prune
     from flatland_ma.policies.checkpoint import SUFFIX
 
-    log = runs / name / "ppo" / f"seed_{seed}.csv"
+    log = runs / name / method / f"seed_{seed}.csv"
     args = ppo_args(name, seed, task, log)
     summary = ppo.main(args)
     prune(log.with_suffix(""), -1)  # the run is over: nothing left to go on from
@@ -95,8 +98,13 @@ def never_ending(name: str) -> bool:
     return bool(load_stream(name).never_ending)
 
 
-def ppo_possible(name: str, kind: str) -> bool:
+def ppo_possible(name: str, kind: str, method: str = "ppo") -> bool:
     """Whether a shipped learner can train on the task: every scenario and every stream
     (a stream of tasks through ``baselines.lifelong``, the never-ending one through
-    ``baselines.never_ending``)."""
+    ``baselines.never_ending``); the channel's ablation (``NO_CHANNEL``), every scenario
+    with a channel."""
+    if method == NO_CHANNEL:
+        from flatland_ma.scenario.loader import load_scenario
+
+        return kind == "scenario" and load_scenario(name).channel is not None
     return kind in ("scenario", "stream")

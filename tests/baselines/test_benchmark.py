@@ -356,23 +356,59 @@ def test_a_tier_with_a_task_list_trains_only_those(tmp_path):
     ]
 
 
-def test_a_run_without_the_channel_is_scored_without_it(tmp_path):
-    """signal_maps' follower hears the signaller: a --no-channel run's checkpoint has no
-    hearing, and is played in the scenario as it was trained (its ``overrides``)."""
-    path = tmp_path / "bench.yaml"
-    path.write_text(
-        "seeds: 1\nepisodes: 1\ntiers:\n  smoke: {default: {budget: 32, name: deaf, ppo: "
-        "{num_envs: 1, num_steps: 16, num_minibatches: 2, update_epochs: 1, hidden: 16, "
-        "no_channel: true}}}\n",
-        encoding="utf-8",
-    )
+def test_the_channels_ablation_is_trained_and_scored_without_it(tmp_path):
+    """signal_maps' follower hears the signaller: ``ppo_no_channel`` trains the task's
+    configuration with --no-channel (a checkpoint with no hearing), plays it in the
+    scenario as it was trained (its ``overrides``), and runs only where there is a
+    channel; the page sets it beside PPO."""
+    config = tiny_config(tmp_path / "bench.yaml")
     out, runs = tmp_path / "results", tmp_path / "runs"
-    run(load_config(path), [("signal_maps", "scenario")], ["ppo"], out, runs)
-    record = json.loads(result_path(out, "signal_maps", "ppo", 0).read_text())
+    tasks = [("fruits_poisons", "scenario"), ("signal_maps", "scenario")]
+    written = run(config, tasks, ["ppo_no_channel"], out, runs, tier="standard")
+    assert [p.relative_to(out).as_posix() for p in written] == [
+        "signal_maps/ppo_no_channel/standard/seed_0.json"
+    ]
+    record = json.loads(written[0].read_text())
     assert record["options"]["no_channel"] is True and len(record["episodes"]) == 1
-    checkpoint = runs / "signal_maps" / "ppo" / "seed_0.safetensors"
+    assert record["configuration"] == "tiny-1, without the channel"
+    assert record["curve"] is not None
+    checkpoint = runs / "standard" / "signal_maps" / "ppo_no_channel" / "seed_0.safetensors"
     assert play.trained_overrides(str(checkpoint)) == {"channel": None}
     assert play.trained_overrides("") == {}
+    summary = build(out, config, tasks)
+    rows = {r["task"]: r for r in summary["tiers"]["standard"]["rows"]}
+    assert rows["signal_maps"]["ppo_no_channel"]["seeds"] == 1
+    assert rows["signal_maps"]["channel_helps"] == ""  # no PPO with the channel yet
+    assert not rows["fruits_poisons"]["no_channel_learner"]
+    page = render(summary)
+    section = page.split("### Without the channel (standard)")[1].split("###")[0]
+    assert "`signal_maps`" in section and "`fruits_poisons`" not in section
+    assert "tiny-1, without the channel" in section
+
+
+@pytest.mark.parametrize(
+    ("with_it", "without", "helps"),
+    [
+        ([5, 6, 7], [0, 1, 0], "yes"),
+        ([0, 1, 0], [5, 6, 7], "no"),
+        ([1, 5, 9], [2, 6, 8], "not shown"),
+    ],
+)
+def test_the_channel_helps_where_ppos_interval_lies_above_the_ablations(with_it, without, helps):
+    from baselines.benchmark.summary import ablation
+
+    def records(scores, configuration):
+        return [
+            {"score": s, "seed": k, "cpu_seconds": 60.0, "configuration": configuration}
+            for k, s in enumerate(scores)
+        ]
+
+    config = load_config(SETTINGS)
+    methods = {"ppo": records(with_it, "x"), "ppo_no_channel": records(without, "x, deaf")}
+    got = ablation("signal_maps", "scenario", methods, config, "standard")
+    assert got["channel_helps"] == helps and got["no_channel_learner"]
+    assert got["no_channel_configuration"] == "x, deaf"
+    assert got["no_channel_cpu_seconds"] == [60.0] * 3
 
 
 def test_a_preset_does_not_replace_the_budget(tmp_path):
