@@ -41,12 +41,12 @@ configuration for it, each named) and ``certificate`` (10M x 3 seeds, the tasks 
 settings list). Random, scripted and open-loop play do not depend on a budget: their
 results serve every tier.
 
-Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (a tier other than smoke:
-``<out>/<task>/<method>/<tier>/seed_<k>.json`` for PPO and its ablation): the score, each episode's, the budget,
-agent-steps, the configuration's name and options, CPU and wall seconds, a calibration
-(a fixed matrix product timed at the start of the run, ``machine.py``), the
-version of every scenario the task plays, package versions, commit and the machine's
-load; PPO on a scenario also its learning curve (``curves.py``). A seed
+Each result goes to ``<out>/<task>/<method>/seed_<k>.json`` (PPO and its ablation in a
+tier other than smoke: ``<out>/<task>/<method>/<tier>/seed_<k>.json``): the score, each
+episode's, the budget, agent-steps, the configuration's name and options, CPU and wall
+seconds, a calibration (a fixed matrix product timed at the start of the run,
+``machine.py``), the version of every scenario the task plays, package versions, commit
+and the machine's load; PPO on a scenario also its learning curve (``curves.py``). A seed
 whose file exists is skipped, so an interrupted run resumes; a seed's PPO training
 interrupted on a scenario goes on from its newest checkpoint (every 100 updates:
 ``baselines.ppo --resume``), and its file then names the agent-steps where it resumed

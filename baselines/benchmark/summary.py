@@ -116,25 +116,20 @@ def task_row(
             row["open_loop_normalised"] = interval(scores)
     row["verdict"] = verdict(row["normalised"])
     row["beats_open_loop"] = against_open_loop(row["ppo"], row["open_loop"])
-    row.update(ablation(name, kind, methods, config, tier))
+    row.update(ablation(name, kind, methods.get(NO_CHANNEL, []), config, tier))
+    row["channel_helps"] = against_open_loop(row["ppo"], row[NO_CHANNEL])
     return row
 
 
-def ablation(name: str, kind: str, methods: dict[str, list[dict]], config, tier: str) -> dict:
-    """The channel's ablation on a task (``NO_CHANNEL``): whether the tier runs it there,
-    its configuration, its seeds' CPU seconds, and whether PPO with the channel beats it
-    (``against_open_loop``'s answers)."""
-    records = methods.get(NO_CHANNEL, [])
+def ablation(name: str, kind: str, records: list[dict], config, tier: str) -> dict:
+    """The channel's ablation on a task (``NO_CHANNEL``, its seeds' ``records``): whether
+    the tier runs it there, its configuration and its seeds' CPU seconds."""
     return {
         "no_channel_learner": ppo_possible(name, kind, NO_CHANNEL) and config.tier(tier).runs(name),
         "no_channel_configuration": records[0]["configuration"]
         if records
         else config.task(name, tier, NO_CHANNEL).name,
         "no_channel_cpu_seconds": [r["cpu_seconds"] for r in records],
-        "channel_helps": against_open_loop(
-            interval([r["score"] for r in methods["ppo"]]) if methods.get("ppo") else None,
-            interval([r["score"] for r in records]) if records else None,
-        ),
     }
 
 

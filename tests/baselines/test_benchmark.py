@@ -21,7 +21,7 @@ from baselines.benchmark.page import render  # noqa: E402
 from baselines.benchmark.records import OUT, result_path, write_record  # noqa: E402
 from baselines.benchmark.runs import run  # noqa: E402
 from baselines.benchmark.settings import ROOT, SETTINGS, BenchmarkConfig, load_config  # noqa: E402
-from baselines.benchmark.summary import build, scenario_summary, verdict  # noqa: E402
+from baselines.benchmark.summary import build, scenario_summary, task_row, verdict  # noqa: E402
 
 TASK = [("fruits_poisons", "scenario")]
 
@@ -395,20 +395,26 @@ def test_the_channels_ablation_is_trained_and_scored_without_it(tmp_path):
     ],
 )
 def test_the_channel_helps_where_ppos_interval_lies_above_the_ablations(with_it, without, helps):
-    from baselines.benchmark.summary import ablation
-
     def records(scores, configuration):
         return [
-            {"score": s, "seed": k, "cpu_seconds": 60.0, "configuration": configuration}
+            {
+                "score": s,
+                "seed": k,
+                "cpu_seconds": 60.0,
+                "configuration": configuration,
+                "budget": 1_000_000,
+                "agent_steps": 1_000_000,
+                "commit": "abc1234",
+            }
             for k, s in enumerate(scores)
         ]
 
     config = load_config(SETTINGS)
     methods = {"ppo": records(with_it, "x"), "ppo_no_channel": records(without, "x, deaf")}
-    got = ablation("signal_maps", "scenario", methods, config, "standard")
-    assert got["channel_helps"] == helps and got["no_channel_learner"]
-    assert got["no_channel_configuration"] == "x, deaf"
-    assert got["no_channel_cpu_seconds"] == [60.0] * 3
+    row = task_row("signal_maps", "scenario", methods, config, "standard")
+    assert row["channel_helps"] == helps and row["no_channel_learner"]
+    assert row["no_channel_configuration"] == "x, deaf"
+    assert row["no_channel_cpu_seconds"] == [60.0] * 3
 
 
 def test_a_preset_does_not_replace_the_budget(tmp_path):
