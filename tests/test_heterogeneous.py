@@ -181,8 +181,13 @@ def test_padding_puts_each_role_in_the_corner_of_one_space_with_its_role_named()
     np.testing.assert_array_equal(runner[:32], observations["runner_0"])
     assert not runner[32:].any()
     assert Padding.of(flatland_ma.parallel_env("fruits_poisons_multi")) is None
+    ranked = Padding([gymnasium.spaces.Box(0, 1, (4,)), gymnasium.spaces.Box(0, 1, (2, 2))])
+    assert set(ranked.space.spaces) == {"observation_1d", "observation_2d", ROLE}
+    Dict = gymnasium.spaces.Dict  # one entry of two ranks cannot be padded
     with pytest.raises(ValueError, match="ranks"):
-        Padding([gymnasium.spaces.Box(0, 1, (4,)), gymnasium.spaces.Box(0, 1, (2, 2))])
+        Padding(
+            [Dict(x=gymnasium.spaces.Box(0, 1, (4,))), Dict(x=gymnasium.spaces.Box(0, 1, (2, 2)))]
+        )
 
 
 @pytest.mark.parametrize("scenario", ["plate_relay", "signal_rooms"])
@@ -230,6 +235,23 @@ def test_a_padded_batch_gives_what_separate_envs_give_padded(scenario):
         assert data_equivalence(sharded.reset(seed=seed)[0], batch.reset(seed=seed)[0], exact=True)
     finally:
         sharded.close()
+
+
+def test_padding_keeps_observations_of_different_ranks_in_entries_of_their_own():
+    """signal_rooms without its channel: the signaller sees a map, the follower a camera,
+    each one Box, which no one entry can hold."""
+    env = flatland_ma.parallel_env("signal_rooms", channel=None)
+    spaces_ = [env.observation_space(a) for a in env.possible_agents]
+    assert [len(s.shape) for s in spaces_] == [3, 2]
+    padding = Padding(spaces_)
+    assert set(padding.space.spaces) == {"observation_3d", "observation_2d", ROLE}
+    observations, _ = env.reset(seed=0)
+    for i, agent in enumerate(env.possible_agents):
+        padded = padding.pad(i, observations[agent])
+        own, other = ("observation_3d", "observation_2d")[:: 1 if i == 0 else -1]
+        np.testing.assert_array_equal(padded[own], observations[agent])
+        assert not padded[other].any() and padded[ROLE][i] == 1.0
+        assert padding.space.contains(padded)
 
 
 def test_padding_pads_observations_but_not_actions():

@@ -3,10 +3,12 @@ drive them all (parameter sharing across roles).
 
 Agents' spaces are grouped into roles: agents with the same observation space share a
 role, numbered in the order of their first agent. The padded space is a ``Dict`` of every
-entry any role observes (a ``Box`` observation is the entry ``observation``), each as
-large along every axis as the largest of the roles that have it, and a one-hot ``role``
-entry that tells the network whose observation it reads. An agent's observation fills the
-leading corner of each of its entries; the rest, and entries its role lacks, are zeros.
+entry any role observes (a ``Box`` observation is the entry ``observation``, or, where
+roles observe ``Box`` es of different ranks, ``observation_<rank>d``: a map and a camera
+cannot share one entry), each as large along every axis as the largest of the roles that
+have it, and a one-hot ``role`` entry that tells the network whose observation it reads.
+An agent's observation fills the leading corner of each of its entries; the rest, and
+entries its role lacks, are zeros.
 Bounds are the union of the roles', and include 0 where padding may be.
 
 This follows the recipe of SuperSuit's ``pad_observations_v0`` and
@@ -28,11 +30,11 @@ OBSERVATION = "observation"
 """The entry a ``Box`` observation becomes."""
 
 
-def _entries(space: gymnasium.Space) -> dict[str, spaces.Box]:
+def _entries(space: gymnasium.Space, box_key: str) -> dict[str, spaces.Box]:
     if isinstance(space, spaces.Dict):
         entries = dict(space.spaces)
     else:
-        entries = {OBSERVATION: space}
+        entries = {box_key: space}
     for key, entry in entries.items():
         if not isinstance(entry, spaces.Box):
             raise ValueError(f"padding covers Box entries; {key!r} is {entry}")
@@ -51,7 +53,15 @@ class Padding:
         self.roles = len(distinct)
         self.role_of = [distinct.index(text) for text in texts]
         """Each agent's role."""
-        self._own = [_entries(space) for space in observation_spaces]
+        ranks = {len(s.shape) for s in observation_spaces if isinstance(s, spaces.Box)}
+        self._box_key = [
+            f"{OBSERVATION}_{len(s.shape)}d"
+            if len(ranks) > 1 and isinstance(s, spaces.Box)
+            else OBSERVATION
+            for s in observation_spaces
+        ]
+        """The entry each agent's ``Box`` observation becomes (if it observes one)."""
+        self._own = [_entries(s, key) for s, key in zip(observation_spaces, self._box_key)]
         boxes: dict[str, list[spaces.Box]] = {}
         for entries in self._own:
             for key, box in entries.items():
@@ -109,6 +119,8 @@ class Padding:
         """Write agent ``agent``'s observation into ``buffer`` (a dict of arrays of the
         padded space's entries, at index ``slot`` of each): its entries in their corners.
         Other places, its role's among them (``mark``), are left as they are."""
-        entries = observation if isinstance(observation, dict) else {OBSERVATION: observation}
+        if not isinstance(observation, dict):
+            observation = {self._box_key[agent]: observation}
+        entries = observation
         for key, corner in self._corner[agent].items():
             buffer[key][slot][corner] = entries[key]

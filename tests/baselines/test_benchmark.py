@@ -357,32 +357,33 @@ def test_a_tier_with_a_task_list_trains_only_those(tmp_path):
 
 
 def test_the_channels_ablation_is_trained_and_scored_without_it(tmp_path):
-    """signal_maps' follower hears the signaller: ``ppo_no_channel`` trains the task's
-    configuration with --no-channel (a checkpoint with no hearing), plays it in the
-    scenario as it was trained (its ``overrides``), and runs only where there is a
-    channel; the page sets it beside PPO."""
+    """signal_rooms' follower hears the signaller: ``ppo_no_channel`` trains the task's
+    configuration with --no-channel (a checkpoint with no hearing; without the channel the
+    signaller's map and the follower's camera are one padded space's two entries), plays
+    it in the scenario as it was trained (its ``overrides``), and runs only where there is
+    a channel; the page sets it beside PPO."""
     config = tiny_config(tmp_path / "bench.yaml")
     out, runs = tmp_path / "results", tmp_path / "runs"
-    tasks = [("fruits_poisons", "scenario"), ("signal_maps", "scenario")]
+    tasks = [("fruits_poisons", "scenario"), ("signal_rooms", "scenario")]
     written = run(config, tasks, ["ppo_no_channel"], out, runs, tier="standard")
     assert [p.relative_to(out).as_posix() for p in written] == [
-        "signal_maps/ppo_no_channel/standard/seed_0.json"
+        "signal_rooms/ppo_no_channel/standard/seed_0.json"
     ]
     record = json.loads(written[0].read_text())
     assert record["options"]["no_channel"] is True and len(record["episodes"]) == 1
     assert record["configuration"] == "tiny-1, without the channel"
     assert record["curve"] is not None
-    checkpoint = runs / "standard" / "signal_maps" / "ppo_no_channel" / "seed_0.safetensors"
+    checkpoint = runs / "standard" / "signal_rooms" / "ppo_no_channel" / "seed_0.safetensors"
     assert play.trained_overrides(str(checkpoint)) == {"channel": None}
     assert play.trained_overrides("") == {}
     summary = build(out, config, tasks)
     rows = {r["task"]: r for r in summary["tiers"]["standard"]["rows"]}
-    assert rows["signal_maps"]["ppo_no_channel"]["seeds"] == 1
-    assert rows["signal_maps"]["channel_helps"] == ""  # no PPO with the channel yet
+    assert rows["signal_rooms"]["ppo_no_channel"]["seeds"] == 1
+    assert rows["signal_rooms"]["channel_helps"] == ""  # no PPO with the channel yet
     assert not rows["fruits_poisons"]["no_channel_learner"]
     page = render(summary)
     section = page.split("### Without the channel (standard)")[1].split("###")[0]
-    assert "`signal_maps`" in section and "`fruits_poisons`" not in section
+    assert "`signal_rooms`" in section and "`fruits_poisons`" not in section
     assert "tiny-1, without the channel" in section
 
 
