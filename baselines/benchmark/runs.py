@@ -123,10 +123,10 @@ def run(
                     check_configuration(path, level.task(name, method).name)
     for method in methods:
         for name, kind in tasks:
-            learnt = method in LEARNED
-            if learnt and not (ppo_possible(name, kind, method) and level.runs(name)):
+            trained = method in LEARNED
+            if trained and not (ppo_possible(name, kind, method) and level.runs(name)):
                 continue
-            seeds = level.seeds if method in LEARNED else config.seeds
+            seeds = level.seeds if trained else config.seeds
             if method == "scripted":
                 seeds = scripted_seeds(name, kind, config)
             for seed in range(seeds):
