@@ -68,16 +68,18 @@ from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
 from flatland_ma.policies.checkpoint import SUFFIX, write_checkpoint
+from flatland_ma.policies.named import make_policy
 
 
 def batched_env(args: Args, stage: Stage | None = None):
     """The run's worlds: of ``args.scenario``, or of a curriculum's ``stage``."""
     if stage is not None:
-        if args.no_channel or args.shards > 1:
-            raise ValueError(
-                "a curriculum runs in one process, and says channel: null in its overrides"
-            )
-        return BatchedParallelEnv(stage.spec, num_worlds=args.num_envs, copy=False, pad=True)
+        if args.shards > 1:
+            raise ValueError("a curriculum runs in one process: no --shards")
+        spec = stage.spec
+        if args.no_channel:  # every stage without it, validated again
+            spec = type(spec).model_validate({**dict(spec), "channel": None})
+        return BatchedParallelEnv(spec, num_worlds=args.num_envs, copy=False, pad=True)
     # Agents whose observations differ (roles with other sensors) share the network
     # through one padded space that names each slot's role (flatland_ma.envs.padding).
     overrides: dict = {"pad": True}
@@ -90,14 +92,19 @@ def batched_env(args: Args, stage: Stage | None = None):
     return BatchedParallelEnv(args.scenario, num_worlds=args.num_envs, copy=False, **overrides)
 
 
-def learner_slots(args: Args, env) -> np.ndarray:
-    """Which of ``env``'s slots learn: every one, or those of the team ``args.learners``
-    (``ValueError`` naming the scenario's teams if it has no such team)."""
+def learner_slots(args: Args, env, stage: Stage | None = None) -> np.ndarray:
+    """Which of ``env``'s slots learn: every one, those of the team ``args.learners``
+    (``ValueError`` naming the scenario's teams if it has no such team), or a curriculum
+    stage's focal agents."""
     m = env.agents_per_world
+    if args.learners and args.curriculum:
+        raise ValueError("--learners trains one team of one scenario: not with --curriculum")
+    if stage is not None and stage.focal is not None:
+        own = np.zeros(m, bool)
+        own[list(stage.focal)] = True
+        return np.tile(own, env.num_slots // m)
     if not args.learners:
         return np.ones(env.num_slots, bool)
-    if args.curriculum:
-        raise ValueError("--learners trains one team of one scenario: not with --curriculum")
     teams = [team.name for team in env.spec.teams or ()]
     if args.learners not in teams:
         raise ValueError(
@@ -106,6 +113,36 @@ def learner_slots(args: Args, env) -> np.ndarray:
         )
     own = [env.spec.team_of(j).name == args.learners for j in range(m)]
     return np.tile(np.array(own, bool), env.num_slots // m)
+
+
+def partner_policies(env, stage: Stage | None, seed: int) -> dict[int, object]:
+    """A curriculum stage's background policy at every slot that does not learn in it,
+    built for that slot's world (empty without a background)."""
+    if stage is None or stage.background is None or stage.focal is None:
+        return {}
+    m, rng = env.agents_per_world, np.random.default_rng([seed, 2])
+    return {
+        w * m + j: make_policy(stage.background, world, agent, seed=int(rng.integers(2**31)))
+        for w, world in enumerate(env.worlds)
+        for j, agent in enumerate(world.possible_agents)
+        if j not in stage.focal
+    }
+
+
+def run_iterations(args: Args, stages: list[Stage], env, learns: np.ndarray, total: int) -> int:
+    """Updates in the run: the budget over the agent-steps an update collects; with
+    stages where only some agents learn, each stage's own steps over its own."""
+    if not any(stage.focal is not None for stage in stages):
+        return max(1, total // (int(learns.sum()) * args.num_steps))
+    per_update = [int(learner_slots(args, env, stage).sum()) * args.num_steps for stage in stages]
+    return max(1, sum(-(-stage.steps // n) for stage, n in zip(stages, per_update, strict=True)))
+
+
+def trained_with(args: Args, stages: list[Stage]) -> list[str]:
+    """Who the policy played beside in training: itself, random play (``--learners``)
+    and any curriculum stage's background policy."""
+    partners = sorted({stage.background for stage in stages if stage.background})
+    return ["self", *(["random"] if args.learners else []), *partners]
 
 
 def run_name(args: Args) -> str:
@@ -150,10 +187,12 @@ class Training:
             seed, self.stage = resumed.seed(args.seed), resumed.stage(self.ends)
             seed_everything(seed)
             torch.set_num_threads(args.torch_threads)
-        self.env = env = batched_env(args, self.stages[self.stage] if self.stages else None)
-        self.learns = learner_slots(args, env)
-        """The slots that learn (every one but with ``--learners``): whose steps count."""
-        self.iterations = max(1, total_timesteps // (int(self.learns.sum()) * args.num_steps))
+        stage = self.stages[self.stage] if self.stages else None
+        self.env = env = batched_env(args, stage)
+        self.learns = learner_slots(args, env, stage)
+        """The slots that learn (every one but with ``--learners`` or a stage's ``focal``):
+        whose steps count."""
+        self.iterations = run_iterations(args, self.stages, env, self.learns, total_timesteps)
         # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
         # from their cache), the network and the optimiser (its first import of torch's
         # compiler takes a second or more).
@@ -186,11 +225,17 @@ class Training:
         )
         self.space = env.single_observation_space
         """The first stage's observations, which the checkpoints describe."""
-        for rollout in [self.rollout, *(self.overlapped.rollouts if self.overlapped else [])]:
+        for rollout in self.rollouts:
             rollout.learns = self.learns
             rollout.background = np.random.default_rng([seed, 1])
+            rollout.partners = partner_policies(env, stage, seed)
         self.learn_from = learning_reward(args, env)
         self._bookkeeping(counters)
+
+    @property
+    def rollouts(self) -> list:
+        """The rollouts the run collects into (two when collection overlaps the update)."""
+        return [self.rollout, *(self.overlapped.rollouts if self.overlapped else [])]
 
     def _bookkeeping(self, counters: tuple[str, ...]) -> None:
         """The log, the scalars and the episodes' counts, from the start or from where the
@@ -226,6 +271,12 @@ class Training:
         self.env = batched_env(args, self.stages[self.stage])
         self.observation, _ = self.env.reset(seed=args.seed * args.num_envs)
         (self.overlapped or self.rollout).next_acting[:] = True
+        stage = self.stages[self.stage]
+        self.learns = learner_slots(args, self.env, stage)
+        for rollout in self.rollouts:
+            rollout.learns = self.learns
+            rollout.partners = partner_policies(self.env, stage, args.seed * 1000 + self.stage)
+        self.episodes.logged = self.learns[: self.env.agents_per_world].tolist()
         self.episodes.restart()
         self.learn_from = learning_reward(args, self.env)
         self.began.append(step)
@@ -286,7 +337,7 @@ class Training:
             extra={
                 "algorithm": "ppo",
                 # self-play: every slot is this policy, or its team beside random play
-                "trained_with": ["self", "random"] if args.learners else ["self"],
+                "trained_with": trained_with(args, self.stages),
                 "overrides": {"channel": None} if args.no_channel else {},
                 "padded": self.env.padding is not None,
                 "args": asdict(args),

@@ -184,8 +184,12 @@ class Rollout:
         self.generator: torch.Generator | None = None
         """Where the acting pass draws its actions from (torch's global one if None)."""
         self.learns = np.ones(slots, bool)
-        """The slots that learn; the others act at random from ``background`` and are
-        left out of the update and of the agent-steps counted (``--learners``)."""
+        """The slots that learn; the others act at random from ``background`` (or play
+        their ``partners``' policy) and are left out of the update and of the agent-steps
+        counted (``--learners``, a curriculum's ``focal``)."""
+        self.partners: dict[int, object] = {}
+        """A shipped policy for each slot that does not learn, by slot (a curriculum's
+        ``background``): it acts there instead of random play."""
         self.background = np.random.default_rng(0)
         self._sizes = np.array(agent.sizes, np.int64)
         self.gather = Gather()
@@ -216,6 +220,8 @@ class Rollout:
             chosen[:] = action.numpy()
             if others is not None:
                 chosen[others] = self.background.integers(self._sizes, size=chosen[others].shape)
+            if self.partners:
+                self._partner_actions(chosen, observation)
             self._logprobs[t], self._values[t] = logprob.numpy(), value.numpy()
             tick = time.perf_counter()
             observation, reward, terminated, truncated, infos = env.step(
@@ -223,6 +229,8 @@ class Rollout:
             )
             self.env_seconds += time.perf_counter() - tick
             done = terminated | truncated
+            if self.partners and done.any():
+                self._partners_restart(done)
             learnt = reward if learn_from is None else learn_from(reward, terminated)
             self._rewards[t] = learnt * reward_scale
             self._ends[t], self._stops[t] = done, terminated
@@ -233,6 +241,25 @@ class Rollout:
         with torch.no_grad():
             self.next_value = self.bootstrap(agent, observation, next_state)
         return observation
+
+    def _partner_actions(self, chosen: np.ndarray, observation) -> None:
+        """Each partner's action at its slot, where the env uses it: the policy sees its
+        slot's observation as the batched env gives it."""
+        for slot, policy in self.partners.items():
+            if not self.next_acting[slot]:
+                continue
+            if isinstance(observation, dict):
+                seen = {key: value[slot] for key, value in observation.items()}
+            else:
+                seen = observation[slot]
+            chosen[slot] = np.asarray(policy.act(seen)).reshape(-1)
+
+    def _partners_restart(self, done: np.ndarray) -> None:
+        """A partner whose slot's episode ended starts its next one afresh."""
+        for slot in np.flatnonzero(done):
+            reset = getattr(self.partners.get(int(slot)), "reset", None)
+            if reset is not None:
+                reset()
 
     # What a rollout of a policy with memory (baselines.ppo_memory) does its own way.
 

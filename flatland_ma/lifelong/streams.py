@@ -232,13 +232,15 @@ class Stream:
         return segments[-1][2] if segments else None
 
 
-def load_stream(name: str | Path, padded: bool = False) -> Stream:
+def load_stream(name: str | Path, padded: bool = False, every_slot: bool = False) -> Stream:
     """A shipped stream by name, or a stream file; ``ScenarioError`` (file, line, key
     path) if it is not a valid stream, its scenarios and background policies included, or
     if the file is no regular file (``flatland_ma.scenario.files``). ``padded``: the
     learner reads its agents' observations padded to one space (``envs.padding``, as
     ``baselines.ppo`` does), so agents of a task may observe differently; the padded
-    spaces must then agree from task to task."""
+    spaces must then agree from task to task. ``every_slot``: one network sits in every
+    agent's slot of every task, whichever agents learn in it (a curriculum of
+    ``baselines.ppo``), so the spaces and names checked are every agent's."""
     if isinstance(name, Stream):
         return name
     path = Path(name)
@@ -253,10 +255,12 @@ def load_stream(name: str | Path, padded: bool = False) -> Stream:
         spec = StreamSpec.model_validate(raw)
     except ValidationError as err:
         raise ScenarioError(problems_from(err.errors(), StreamSpec, raw, marks, source)) from None
-    return _checked(path.stem, spec, marks, source, padded)
+    return _checked(path.stem, spec, marks, source, padded, every_slot)
 
 
-def _checked(name: str, spec: StreamSpec, marks: Marks, source: str, padded: bool) -> Stream:
+def _checked(
+    name: str, spec: StreamSpec, marks: Marks, source: str, padded: bool, every_slot: bool
+) -> Stream:
     """Each task's scenario loaded and checked, faults located at the task's keys; every
     task's learner spaces equal; every background policy made for the agents it drives."""
 
@@ -282,7 +286,8 @@ def _checked(name: str, spec: StreamSpec, marks: Marks, source: str, padded: boo
             raise fault((*key, *err.path), str(err)) from None
         scenarios.append(scenario)
     stream = Stream(name, spec, scenarios, source, focal)
-    _same_spaces(scenarios, focal, entries, fault, padded)
+    slots = [list(range(s.n_agents)) for s in scenarios] if every_slot else focal
+    _same_spaces(scenarios, slots, focal, entries, fault, padded)
     return stream
 
 
@@ -311,20 +316,25 @@ def _learner_spaces(env, focal: list[int], padded: bool) -> set[tuple[str, str]]
 
 
 def _same_spaces(
-    scenarios: list[ScenarioSpec], focals: list[list[int]], entries, fault, padded: bool
+    scenarios: list[ScenarioSpec],
+    slots: list[list[int]],
+    focals: list[list[int]],
+    entries,
+    fault,
+    padded: bool,
 ) -> None:
-    """Whether the learner's agents (``focals``, per task) observe and act alike in every
-    task (``padded``: through the padded space of each task's agents), under the same
-    names, and each background policy can drive its agents; raises ``fault`` at the task's
-    key where not."""
+    """Whether the network's agents (``slots``, per task: the learner's, or every one)
+    observe and act alike in every task (``padded``: through the padded space of each
+    task's agents), under the same names, and each background policy can drive the agents
+    not ``focals``; raises ``fault`` at the task's key where not."""
     from flatland_ma.envs.parallel import FlatlandParallelEnv
 
     first = None
-    for (key, task), scenario, focal in zip(entries, scenarios, focals):
+    for (key, task), scenario, slot, focal in zip(entries, scenarios, slots, focals):
         env = FlatlandParallelEnv(scenario)
-        names = [env.possible_agents[i] for i in focal]
+        names = [env.possible_agents[i] for i in slot]
         try:
-            spaces = _learner_spaces(env, focal, padded)
+            spaces = _learner_spaces(env, slot, padded)
             background = getattr(task, "background", None)
             if background is not None:
                 others = [a for i, a in enumerate(env.possible_agents) if i not in focal]

@@ -164,7 +164,61 @@ def test_the_shipped_curricula_load_and_end_on_their_task(path):
     stages = curriculum_stages(path)
     assert len(stages) >= 2 and all(stage.steps > 0 for stage in stages)
     assert stages[-1].spec == flatland_ma.load_scenario(stages[-1].name)  # the task itself
-    assert all(stage.spec != stages[-1].spec for stage in stages[:-1])  # easier first
+    # easier first: an easier scenario, or a scripted partner beside the learners
+    assert all(
+        stage.spec != stages[-1].spec or stage.background is not None for stage in stages[:-1]
+    )
+    assert stages[-1].focal is None  # in the task itself every agent learns
+
+
+def _told_first(tmp_path, steps: int = 64) -> Path:
+    """signal_rooms: the seeker alone learning beside the scripted Signaller, then both."""
+    stream = tmp_path / "told_first.yaml"
+    stream.write_text(
+        "tasks:\n"
+        f"  - {{name: told, scenario: signal_rooms, focal: [seeker], background: signaller,"
+        f" steps: {steps}}}\n"
+        f"  - {{name: both, scenario: signal_rooms, steps: {steps}}}\n"
+    )
+    return stream
+
+
+def test_a_curriculum_stage_with_a_background_trains_its_focal_agents_beside_it(tmp_path):
+    """In the first stage the guides' slots play the Signaller: every step they act, they
+    name the room that holds their world's goal, and only the seekers learn (their steps
+    alone count); in the second every agent learns, and the checkpoint says whom it met."""
+    import time
+
+    from baselines.ppo import Training
+    from flatland_ma.policies.signals import rooms_of
+    from flatland_ma.world.entities import Item
+
+    args = Args(
+        scenario="signal_rooms",
+        curriculum=str(_told_first(tmp_path)),
+        num_envs=2,
+        num_steps=16,
+        checkpoint_every=0,
+        tensorboard=False,
+        csv=str(tmp_path / "seed_0.csv"),
+    )
+    run = Training(args)
+    assert run.learns.tolist() == [False, True, False, True]  # guide_0, seeker_0 per world
+    run.iterate(1, time.perf_counter())
+    words = np.asarray(run.rollout._actions)[:, [0, 2], -1]  # the guides' words
+    for w, world in enumerate(run.env.worlds):
+        goal = next(i for i in world.episode.world.of_type(Item) if i.visible and i.reward > 0)
+        x, y = goal.body.position
+        room = [r[0] <= x <= r[2] and r[1] <= y <= r[3] for r in rooms_of(world.spec)].index(True)
+        assert set(words[:, w].tolist()) == {room}  # 16 steps: no goal reached yet
+    assert not np.asarray(run.rollout._acting)[:, [0, 2]].any()  # the guides' are not learnt
+    assert run.episodes.global_step == 2 * 16  # the seekers' steps alone
+    while run.stage == 0:
+        run.iterate(2, time.perf_counter())
+    assert run.learns.all() and not run.rollout.partners
+    from baselines.ppo import trained_with
+
+    assert trained_with(args, run.stages) == ["self", "signaller"]
 
 
 def _open_room(goal_at: float, wall: bool, reward: float = 10.0):
@@ -414,3 +468,23 @@ def test_with_learners_only_that_team_learns_and_the_others_act_at_random(tmp_pa
     from flatland_ma.policies.checkpoint import read_checkpoint
 
     assert read_checkpoint(csv.with_suffix(".safetensors"))["trained_with"] == ["self", "random"]
+
+
+def test_a_curriculum_without_the_channel_plays_every_stage_without_it(tmp_path):
+    from baselines.ppo import Training
+
+    args = Args(
+        scenario="signal_rooms",
+        curriculum=str(_told_first(tmp_path)),
+        no_channel=True,
+        num_envs=1,
+        num_steps=8,
+        checkpoint_every=0,
+        tensorboard=False,
+        csv=str(tmp_path / "seed_0.csv"),
+    )
+    run = Training(args)
+    assert run.env.spec.channel is None and "messages" not in run.env.single_observation_space
+    while run.stage == 0:
+        run.iterate(1, 0.0)
+    assert run.env.spec.channel is None
