@@ -67,8 +67,8 @@ from baselines.shaping import learning_reward
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
+from flatland_ma.lifelong.envs import policies_beside
 from flatland_ma.policies.checkpoint import SUFFIX, write_checkpoint
-from flatland_ma.policies.named import make_policy
 
 
 def batched_env(args: Args, stage: Stage | None = None):
@@ -122,10 +122,9 @@ def partner_policies(env, stage: Stage | None, seed: int) -> dict[int, object]:
         return {}
     m, rng = env.agents_per_world, np.random.default_rng([seed, 2])
     return {
-        w * m + j: make_policy(stage.background, world, agent, seed=int(rng.integers(2**31)))
+        w * m + world.possible_agents.index(agent): policy
         for w, world in enumerate(env.worlds)
-        for j, agent in enumerate(world.possible_agents)
-        if j not in stage.focal
+        for agent, policy in policies_beside(stage.background, world, stage.focal, rng).items()
     }
 
 

@@ -35,6 +35,7 @@ from torch.utils._pytree import tree_flatten, tree_leaves, tree_map, tree_unflat
 
 from baselines.networks import Agent
 from baselines.ppo_loss import descend
+from flatland_ma.envs.vector import slot_observation
 
 
 def keep_freed_memory() -> bool:
@@ -248,11 +249,7 @@ class Rollout:
         for slot, policy in self.partners.items():
             if not self.next_acting[slot]:
                 continue
-            if isinstance(observation, dict):
-                seen = {key: value[slot] for key, value in observation.items()}
-            else:
-                seen = observation[slot]
-            chosen[slot] = np.asarray(policy.act(seen)).reshape(-1)
+            chosen[slot] = np.asarray(policy.act(slot_observation(observation, slot))).reshape(-1)
 
     def _partners_restart(self, done: np.ndarray) -> None:
         """A partner whose slot's episode ended starts its next one afresh."""

@@ -65,6 +65,14 @@ VECTOR_RENDER_MODES = ["rgb_array"]
 """What the envs of many worlds render: one frame per world (no window per world)."""
 
 
+def slot_observation(observations, slot: int):
+    """One slot's observation out of a batched env's observations (a dict of arrays, one
+    entry per slot in each, or one array), as a policy of one agent reads it."""
+    if isinstance(observations, dict):
+        return {key: value[slot] for key, value in observations.items()}
+    return observations[slot]
+
+
 def check_vector_render_mode(render_mode: str | None) -> None:
     if render_mode is not None and render_mode not in VECTOR_RENDER_MODES:
         raise ValueError(

@@ -36,7 +36,7 @@ from gymnasium.vector.utils import batch_space
 
 from flatland_ma.envs.guards import OneCaller, check_batch_of_actions
 from flatland_ma.envs.resets import FINAL_INFO, FINAL_OBS, autoreset_mode_of, final_infos
-from flatland_ma.envs.vector import BatchedParallelEnv
+from flatland_ma.envs.vector import BatchedParallelEnv, slot_observation
 from flatland_ma.lifelong.drift import Drift
 from flatland_ma.lifelong.envs import (
     TASK,
@@ -284,11 +284,7 @@ class StreamBatchedEnv:
                 slot = w * m + env.possible_agents.index(agent)
                 if not env.active[slot]:
                     continue
-                if isinstance(observations, dict):
-                    seen = {key: value[slot] for key, value in observations.items()}
-                else:
-                    seen = observations[slot]
-                full[slot] = policy.act(seen)
+                full[slot] = policy.act(slot_observation(observations, slot))
         return full
 
     def _out(

@@ -63,13 +63,18 @@ def announce(observation, task: int, tasks: int) -> dict:
 
 def background_policies(stream: Stream, task: int, env, rng: np.random.Generator) -> dict:
     """The background policy of each agent of ``env`` the learner does not drive."""
-    from flatland_ma.policies.named import make_policy
-
     if stream.never_ending or stream.task(task).background is None:
         return {}
     name = stream.task(task).background
     assert name is not None
-    focal = stream.focal(task)
+    return policies_beside(name, env, stream.focal(task), rng)
+
+
+def policies_beside(name: str, env, focal, rng: np.random.Generator) -> dict:
+    """The shipped policy ``name`` for each agent of ``env`` whose index is not in
+    ``focal``, by agent, each seeded from ``rng`` in the agents' order."""
+    from flatland_ma.policies.named import make_policy
+
     return {
         agent: make_policy(name, env, agent, seed=int(rng.integers(2**31)))
         for i, agent in enumerate(env.possible_agents)

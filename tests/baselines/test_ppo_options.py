@@ -183,6 +183,18 @@ def _told_first(tmp_path, steps: int = 64) -> Path:
     return stream
 
 
+def _told_first_args(tmp_path, **options) -> Args:
+    """A short run of ``_told_first``, without checkpoints or scalars."""
+    return Args(
+        scenario="signal_rooms",
+        curriculum=str(_told_first(tmp_path)),
+        checkpoint_every=0,
+        tensorboard=False,
+        csv=str(tmp_path / "seed_0.csv"),
+        **options,
+    )
+
+
 def test_a_curriculum_stage_with_a_background_trains_its_focal_agents_beside_it(tmp_path):
     """In the first stage the guides' slots play the Signaller: every step they act, they
     name the room that holds their world's goal, and only the seekers learn (their steps
@@ -193,15 +205,7 @@ def test_a_curriculum_stage_with_a_background_trains_its_focal_agents_beside_it(
     from flatland_ma.policies.signals import rooms_of
     from flatland_ma.world.entities import Item
 
-    args = Args(
-        scenario="signal_rooms",
-        curriculum=str(_told_first(tmp_path)),
-        num_envs=2,
-        num_steps=16,
-        checkpoint_every=0,
-        tensorboard=False,
-        csv=str(tmp_path / "seed_0.csv"),
-    )
+    args = _told_first_args(tmp_path, num_envs=2, num_steps=16)
     run = Training(args)
     assert run.learns.tolist() == [False, True, False, True]  # guide_0, seeker_0 per world
     run.iterate(1, time.perf_counter())
@@ -473,16 +477,7 @@ def test_with_learners_only_that_team_learns_and_the_others_act_at_random(tmp_pa
 def test_a_curriculum_without_the_channel_plays_every_stage_without_it(tmp_path):
     from baselines.ppo import Training
 
-    args = Args(
-        scenario="signal_rooms",
-        curriculum=str(_told_first(tmp_path)),
-        no_channel=True,
-        num_envs=1,
-        num_steps=8,
-        checkpoint_every=0,
-        tensorboard=False,
-        csv=str(tmp_path / "seed_0.csv"),
-    )
+    args = _told_first_args(tmp_path, no_channel=True, num_envs=1, num_steps=8)
     run = Training(args)
     assert run.env.spec.channel is None and "messages" not in run.env.single_observation_space
     while run.stage == 0:
