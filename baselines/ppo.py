@@ -19,11 +19,12 @@ episode bootstraps from the value of its last observation, which that mode retur
 Options beyond CleanRL's, each off by default: ``--preset NAME``, settings chosen for a
 task (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's
 summed reward, and ``--shaping W``, a potential-based term for delivery and goal tasks
-(``baselines.shaping``); ``--curriculum FILE``, the tasks of a stream file in turn
-(``baselines.curriculum``); ``--memory gru`` and ``--frames K``, a policy with memory
-(``baselines.ppo_memory``); ``--resume``, go on with an interrupted run from its newest
-checkpoint (``baselines.ppo_resume``). The options are ``baselines.ppo_args.Args``. The
-log always keeps each agent's own, unshaped return.
+(``baselines.shaping``); ``--listening W`` and ``--signalling W``, biases towards using
+the channel (``baselines.channel_bias``); ``--curriculum FILE``, the tasks of a stream
+file in turn (``baselines.curriculum``); ``--memory gru`` and ``--frames K``, a policy
+with memory (``baselines.ppo_memory``); ``--resume``, go on with an interrupted run from
+its newest checkpoint (``baselines.ppo_resume``). The options are
+``baselines.ppo_args.Args``. The log always keeps each agent's own, unshaped return.
 
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
 episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
@@ -46,6 +47,7 @@ import numpy as np
 import torch
 import tyro
 
+from baselines.channel_bias import channel_bias
 from baselines.common import (
     RunLog,
     calibration,
@@ -228,6 +230,7 @@ class Training:
             rollout.learns = self.learns
             rollout.background = np.random.default_rng([seed, 1])
             rollout.partners = partner_policies(env, stage, seed)
+            rollout.bias = channel_bias(args, env, agent)
         self.learn_from = learning_reward(args, env)
         self._bookkeeping(counters)
 

@@ -106,6 +106,12 @@ class Args:
     curriculum: str = ""
     """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
     their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""
+    listening: float = 0.0
+    """Weight of a bias towards listening (``baselines.channel_bias``): each step's moves
+    made to differ between the words the others said and other words; 0: none."""
+    signalling: float = 0.0
+    """Weight of a bias towards signalling (``baselines.channel_bias``): words that differ
+    between situations and are sure in each; 0: none."""
     memory: Literal["none", "gru"] = "none"
     """The policy's recurrent core: "gru", a one-layer GRU of ``memory_size`` units after
     the fully connected layer, its state carried through each episode and trained on whole

@@ -112,12 +112,14 @@ def update(
     states=None,
     generator: torch.Generator | None = None,
     gather: Gather | None = None,
+    bias=None,
 ) -> dict:
     """CleanRL's PPO epochs over the rollout's acting entries; returns the last epoch's
-    mean losses. The loss is ``baselines.ppo_loss``'s [+ ``penalty()``], with V read
-    from ``states`` where the critic is centralised. Minibatches are drawn
-    from ``generator`` (torch's global one if None), their observations gathered by
-    ``gather`` (a new ``Gather`` if None)."""
+    mean losses. The loss is ``baselines.ppo_loss``'s [+ ``penalty()``] [+ the channel's
+    ``bias``, a ``baselines.channel_bias.ChannelBias``], with V read from ``states``
+    where the critic is centralised. Minibatches are drawn from ``generator`` (torch's
+    global one if None), their observations gathered by ``gather`` (a new ``Gather`` if
+    None)."""
     gather = Gather() if gather is None else gather
     used = acting.reshape(-1).nonzero().squeeze(1)
     b_states = None if states is None else states.reshape(-1, states.shape[-1])
@@ -135,9 +137,14 @@ def update(
         for index in order.tensor_split(args.num_minibatches):
             x = gather(b_x, index)
             state = None if b_states is None else b_states[index]
-            _, new_logprob, entropy, new_value = agent.act(x, b_actions[index], state)
+            extra, terms = None, {}
+            if bias is None:
+                decided = agent.act(x, b_actions[index], state)
+            else:
+                decided, extra, terms = bias.act(agent, x, b_actions[index], state, index)
             old = (b_logprobs[index], b_advantages[index], b_returns[index], b_values[index])
-            parts = descend(agent, optimizer, args, (new_logprob, entropy, new_value), old, penalty)
+            parts = descend(agent, optimizer, args, decided[1:], old, penalty, extra)
+            parts.update(terms)
             if epoch == args.update_epochs - 1:
                 for key, value in parts.items():
                     stats.setdefault(key, []).append(value)
@@ -196,6 +203,9 @@ class Rollout:
         self.gather = Gather()
         """Where the update's minibatches of observations are gathered, kept from one
         update to the next."""
+        self.bias = None
+        """The channel's biases added to the update's loss (``baselines.channel_bias``;
+        None: none)."""
 
     def collect(
         self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
@@ -305,6 +315,7 @@ class Rollout:
             self.states,
             generator,
             self.gather,
+            self.bias,
         )
 
 

@@ -46,15 +46,20 @@ def ppo_loss(
     return loss, parts
 
 
-def descend(agent, optimizer, args, decided, old, penalty=None) -> dict[str, torch.Tensor]:
+def descend(
+    agent, optimizer, args, decided, old, penalty=None, extra=None
+) -> dict[str, torch.Tensor]:
     """One gradient step on a minibatch: ``ppo_loss`` of what the network now ``decided``
     (log-probabilities, entropies, values) against the rollout's ``old`` (log-probabilities,
     advantages, returns, values), plus ``penalty()`` if given (e.g. EWC's pull towards
-    earlier tasks' parameters); gradients clipped to ``args.max_grad_norm``. Returns the
-    loss's parts."""
+    earlier tasks' parameters) and the minibatch's own ``extra`` loss if given (the
+    channel's biases); gradients clipped to ``args.max_grad_norm``. Returns the loss's
+    parts."""
     loss, parts = ppo_loss(args.clip_coef, args.vf_coef, args.ent_coef, *decided, *old)
     if penalty is not None:
         loss = loss + penalty()
+    if extra is not None:
+        loss = loss + extra
     optimizer.zero_grad(set_to_none=True)
     loss.backward()
     nn.utils.clip_grad_norm_(agent.parameters(), args.max_grad_norm)

@@ -26,6 +26,10 @@ NO_CHANNEL = "ppo_no_channel"
 scored without the scenario's channel (``baselines.ppo --no-channel``), on every scenario
 that has one: what PPO makes of the channel is PPO's score above this."""
 
+CHANNEL_BIASES = frozenset({"listening", "signalling"})
+"""PPO options that bias the use of the channel (``baselines.channel_bias``): its ablation
+trains without them."""
+
 TIERS = ("smoke", "standard", "certificate")
 """The tiers, in the order of their budgets (the page's order)."""
 
@@ -85,11 +89,13 @@ class TierConfig(Strict):
                 name=override.name or self.default.name,
                 ppo={**self.default.ppo, **override.ppo},
             )
-        if method == NO_CHANNEL:
+        if method == NO_CHANNEL:  # the channel's biases go with it
+            kept = {k: v for k, v in task.ppo.items() if k not in CHANNEL_BIASES}
+            biased = " and its biases" if len(kept) < len(task.ppo) else ""
             return TaskConfig(
                 budget=task.budget,
-                name=f"{task.name}, without the channel",
-                ppo={**task.ppo, "no_channel": True},
+                name=f"{task.name}, without the channel{biased}",
+                ppo={**kept, "no_channel": True},
             )
         return task
 

@@ -387,6 +387,23 @@ def test_the_channels_ablation_is_trained_and_scored_without_it(tmp_path):
     assert "tiny-1, without the channel" in section
 
 
+def test_the_channels_ablation_drops_the_channels_biases_and_says_so(tmp_path):
+    path = tmp_path / "bench.yaml"
+    path.write_text(
+        "seeds: 1\nepisodes: 1\ntiers:\n"
+        f"  smoke: {{default: {{budget: 32, ppo: {TINY_PPO}}},\n"
+        "    tasks: {signal_rooms: {name: biased, ppo: {listening: 0.05, signalling: 0.05}}}}\n",
+        encoding="utf-8",
+    )
+    tier = load_config(path).tier("smoke")
+    assert tier.task("signal_rooms").ppo["listening"] == 0.05
+    ablation = tier.task("signal_rooms", "ppo_no_channel")
+    assert ablation.name == "biased, without the channel and its biases"
+    assert ablation.ppo["no_channel"] is True
+    assert not {"listening", "signalling"} & set(ablation.ppo)
+    assert tier.task("fruits_poisons", "ppo_no_channel").name == "defaults, without the channel"
+
+
 @pytest.mark.parametrize(
     ("with_it", "without", "helps"),
     [
