@@ -132,10 +132,11 @@ class ProprioceptionSpec(SensorBaseSpec):
 
 class TopdownSpec(SensorBaseSpec):
     """A top-down image of the square around the agent, turned with it: the heading points
-    up and the agent's left is the image's left. Walls, doors, obstacles, items and
-    agents (itself included) are drawn filled, in the colours the cameras see (a texture
-    shows its first colour). The observation is ``(size, size, width)`` float32, channels
-    last, in [0, 1] (the semantic id in [0, 5])."""
+    up and the agent's left is the image's left (or, ``turned: false``, held north up).
+    Walls, doors, obstacles, items and agents (itself included) are drawn filled, in the
+    colours the cameras see (a texture shows its first colour). The observation is
+    ``(size, size, width)`` float32, channels last, in [0, 1] (the semantic id in [0, 5]).
+    """
 
     type: Literal["topdown"]
     """Selects this sensor."""
@@ -163,6 +164,9 @@ class TopdownSpec(SensorBaseSpec):
     ``visibility``."""
     mount: Literal["base", "head"] = "base"
     """Where it sits: on the base, or on the head (it turns with the head)."""
+    turned: Annotated[bool, Field(strict=True)] = True
+    """Turn the image with the mount (the heading up); false: hold it north up, whichever
+    way the agent faces (``ahead`` and ``fov`` then count from north)."""
 
     @model_validator(mode="after")
     def _distinct_channels(self):

@@ -1,4 +1,5 @@
-"""The top-down sensor: a small map of the square around the agent, turned with it."""
+"""The top-down sensor: a small map of the square around the agent, turned with it (or
+held north up)."""
 
 from __future__ import annotations
 
@@ -46,6 +47,10 @@ class Topdown(Sensor, kind="topdown"):
     channel but visibility: add ``visibility``, or use a one-hot ``semantic``, to tell
     them from bare floor.
 
+    With ``turned`` False the map is held north up whichever way the agent faces (row 0
+    the farthest north, column 0 the farthest west), and ``ahead`` and ``fov`` count from
+    north instead of the heading.
+
     The observation is ``Box(0, high, (size, size, width), float32)``: channels last, rgb
     and visibility in [0, 1], the semantic id in [0, 5]. The default (``rgb``) gives width 3.
     """
@@ -60,6 +65,7 @@ class Topdown(Sensor, kind="topdown"):
         masked: bool = False,
         fov: float = 360.0,
         mount: str = "base",
+        turned: bool = True,
         name: str = "topdown",
     ):
         if unknown := set(channels) - set(CHANNELS):
@@ -67,7 +73,7 @@ class Topdown(Sensor, kind="topdown"):
         self.name, self.mount = name, mount
         self.size, self.extent, self.ahead = size, float(extent), float(ahead)
         self.channels, self.onehot, self.masked = tuple(channels), semantic == "onehot", masked
-        self.fov = float(fov)
+        self.fov, self.turned = float(fov), bool(turned)
         kinds = len(SEMANTIC_KINDS)
         high = {
             "rgb": [1.0] * 3,
@@ -105,6 +111,7 @@ class Topdown(Sensor, kind="topdown"):
                     self.masked,
                     visibility,
                     0,
+                    self.turned,
                 ],
                 np.int64,
             ),

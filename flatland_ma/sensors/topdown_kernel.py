@@ -320,7 +320,8 @@ def draw(pose, shapes, grid, looks, outline, view):
     masked, visibility = flags[3] != 0, flags[4]
     flags[5] += 1
     stamp = flags[5]
-    ox, oy, a = pose[row, 0], pose[row, 1], pose[row, 2]
+    ox, oy = pose[row, 0], pose[row, 1]
+    a = pose[row, 2] if flags[6] != 0 else 0.5 * math.pi  # held north up unless turned
     hx, hy = math.cos(a), math.sin(a)
     n_pixels = view.ids.shape[0]
     for n in range(n_pixels):

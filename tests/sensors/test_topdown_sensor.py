@@ -174,6 +174,21 @@ def test_a_head_mount_turns_the_picture_with_the_head():
     assert np.all(image[:, 15] == WALL_ID) and np.sum(image == WALL_ID) == 20
 
 
+def test_a_map_held_north_up_is_the_turned_map_of_an_agent_facing_north_whichever_way_it_faces():
+    items = [{"name": "gem", "color": "orange", "radius": 6, "positions": [[165, 195]]}]
+    sensor = {"channels": ["rgb", "semantic"]}
+    north = _look(_env(sensor, items=items), math.pi / 2, at=(150.0, 150.0))
+    held = _env({**sensor, "turned": False}, items=items)
+    assert held.spec.agent.sensors[0].turned is False
+    for heading in (math.pi / 2, 0.0, 2.0, -math.pi / 2):
+        image = _look(held, heading, at=(150.0, 150.0))
+        np.testing.assert_array_equal(image, north)
+        item = image[..., 3] == SEMANTIC_KINDS.index("item")
+        assert list(zip(*np.nonzero(item))) == [(5, 11)]  # 45 north, 15 east
+    east = _look(_env(sensor, items=items), 0.0, at=(150.0, 150.0))
+    assert not np.array_equal(east, north)  # the turned map does turn
+
+
 # -- what the agent sees -------------------------------------------------------------------
 
 
