@@ -11,10 +11,11 @@ whatever it means; PPO's own objective decides what.
   loss subtracts ``W`` times it. Eccles et al. compare with a learnt policy that hears
   nothing; changed words keep the input one the network has seen (every word is heard
   at every step), so it cannot meet the bias by telling silence from speech.
-- Signalling: the words should tell situations apart: the entropy of the words' mean
-  distribution over the minibatch less the mean of each row's own, per token head (Eccles
-  et al.'s positive signalling, without its target entropy); the loss subtracts ``W``
-  times it.
+- Signalling: each agent's words should tell its situations apart: per agent of a world,
+  the entropy of its words' mean distribution over the minibatch less the mean of each
+  row's own, per token head, averaged over the agents (Eccles et al.'s positive
+  signalling, without its target entropy; pooled over the agents, two roles that each
+  always say one word of their own would meet it); the loss subtracts ``W`` times it.
 
 Both read the minibatch's observations through the network once: the encodings are shared,
 and only the messages' part and the layers after it are computed again. Feed-forward
@@ -81,7 +82,8 @@ class ChannelBias:
             values["losses/listening"] = term = self.listened(logits, other)
             loss = loss - self.listening * term
         if self.signalling:
-            values["losses/signalling"] = term = self.told(logits[:, self.moves :])
+            speakers = (index % self.num_slots) % self.agents_per_world
+            values["losses/signalling"] = term = self.told(logits[:, self.moves :], speakers)
             loss = loss - self.signalling * term
         return decided, loss, {key: value.detach() for key, value in values.items()}
 
@@ -95,16 +97,22 @@ class ChannelBias:
         tv = (0.5 * (p.softmax(-1) - q.softmax(-1)).abs().sum(-1).mean() for p, q in pairs)
         return sum(tv, logits.new_zeros(()))
 
-    def told(self, words: torch.Tensor) -> torch.Tensor:
-        """Per word head, the entropy of the rows' mean distribution less their mean
-        entropy, summed over the heads."""
-        term = words.new_zeros(())
-        for head in words.split(self.vocabulary, dim=-1):
-            log_p = head.log_softmax(-1)
-            p = log_p.exp()
-            mean = p.mean(0)
-            term = term - (mean * mean.clamp_min(1e-8).log()).sum() + (p * log_p).sum(-1).mean()
-        return term
+    def told(self, words: torch.Tensor, speakers: torch.Tensor) -> torch.Tensor:
+        """Per agent of a world (``speakers``: each row's) and word head, the entropy of
+        its rows' mean distribution less their mean entropy, summed over the heads and
+        averaged over the agents: one agent's words must vary with its situations, not
+        merely differ from another's."""
+        terms = []
+        for who in speakers.unique():
+            own = words[speakers == who]
+            term = own.new_zeros(())
+            for head in own.split(self.vocabulary, dim=-1):
+                log_p = head.log_softmax(-1)
+                p = log_p.exp()
+                mean = p.mean(0)
+                term = term - (mean * mean.clamp_min(1e-8).log()).sum() + (p * log_p).sum(-1).mean()
+            terms.append(term)
+        return torch.stack(terms).mean()
 
 
 def channel_bias(args, env, agent) -> ChannelBias | None:

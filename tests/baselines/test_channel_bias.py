@@ -89,7 +89,7 @@ def test_a_network_that_does_not_read_the_messages_does_not_listen(tmp_path):
     assert float(deaf["losses/listening"]) == 0.0
 
 
-def test_the_signalling_term_is_nothing_for_one_word_everywhere_and_log_v_for_sure_words():
+def test_the_signalling_term_asks_each_agents_words_to_vary_not_the_roles_to_differ():
     bias = ChannelBias(0.0, 1.0, 2, agents_per_world=2, tokens=1, vocabulary=2, sizes=(3, 2))
 
     class Heads(torch.nn.Module):  # the network's parts the term reads, made to order
@@ -106,10 +106,13 @@ def test_the_signalling_term_is_nothing_for_one_word_everywhere_and_log_v_for_su
             return None
 
     messages = torch.zeros(4, 2, 3)
-    index = torch.arange(4)
+    index = torch.arange(4)  # slots 0, 1, 0, 1: agents 0, 1, 0, 1
     same = Heads(torch.tensor([[0.3, -0.2]]).expand(4, 2))
-    sure = Heads(torch.tensor([[20.0, -20.0], [-20.0, 20.0]]).repeat(2, 1))
-    for heads, expected in [(same, 0.0), (sure, math.log(2))]:
+    # Each agent always its own word: the words differ between the roles only.
+    roles = Heads(torch.tensor([[20.0, -20.0], [-20.0, 20.0]]).repeat(2, 1))
+    # Each agent says both words, one sure in each of its situations.
+    varied = Heads(torch.tensor([[20.0, -20.0], [20.0, -20.0], [-20.0, 20.0], [-20.0, 20.0]]))
+    for heads, expected in [(same, 0.0), (roles, 0.0), (varied, math.log(2))]:
         _, _, terms = bias.act(heads, {"messages": messages}, None, None, index)
         assert float(terms["losses/signalling"]) == pytest.approx(expected, abs=1e-5)
 
