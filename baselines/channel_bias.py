@@ -54,14 +54,18 @@ class ChannelBias:
         """The width of the move heads' logits (they come first)."""
         self.sizes = sizes
 
-    def changed(self, messages: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    def speakers(self, index: torch.Tensor) -> torch.Tensor:
+        """Which agent of its world each row is, from its entry in the rollout (``index``:
+        step x slots + slot): its own row of the heard messages."""
+        return (index % self.num_slots) % self.agents_per_world
+
+    def changed(self, messages: torch.Tensor, own: torch.Tensor) -> torch.Tensor:
         """``messages`` (rows, speakers, 1 + tokens x vocabulary) with every speaker's
-        words but the row's own moved on by one word; ``index``: each row's entry in the
-        rollout (step x slots + slot)."""
+        words but the row's own (``own``: each row's agent, ``speakers``) moved on by one
+        word."""
         rows, speakers, _ = messages.shape
         words = messages[..., 1:].reshape(rows, speakers, self.tokens, self.vocabulary)
         moved = words.roll(1, dims=-1)
-        own = (index % self.num_slots) % self.agents_per_world
         mine = torch.arange(speakers, device=messages.device)[None, :] == own[:, None]
         words = torch.where(mine[:, :, None, None], words, moved)
         return torch.cat([messages[..., :1], words.reshape(rows, speakers, -1)], dim=-1)
@@ -70,19 +74,18 @@ class ChannelBias:
         """``agent.act(observation, action, state)``'s result, and the terms' loss and
         values (``losses/listening``, ``losses/signalling``), from one reading of the
         encodings."""
-        parts = {key: module(observation[key]) for key, module in agent.inputs.items()}
-        h = agent.body(torch.cat(list(parts.values()), dim=1))
+        parts = agent.encodings(observation)
+        h = agent.join(parts)
         decided = agent.decide(h, action, state)
         logits = agent.actor(h)
+        speakers = self.speakers(index)
         loss, values = h.new_zeros(()), {}
         if self.listening:
-            changed = self.changed(observation[MESSAGES], index)
-            parts[MESSAGES] = agent.inputs[MESSAGES](changed)
-            other = agent.actor(agent.body(torch.cat(list(parts.values()), dim=1)))
+            changed = self.changed(observation[MESSAGES], speakers)
+            other = agent.actor(agent.join({**parts, MESSAGES: agent.inputs[MESSAGES](changed)}))
             values["losses/listening"] = term = self.listened(logits, other)
             loss = loss - self.listening * term
         if self.signalling:
-            speakers = (index % self.num_slots) % self.agents_per_world
             values["losses/signalling"] = term = self.told(logits[:, self.moves :], speakers)
             loss = loss - self.signalling * term
         return decided, loss, {key: value.detach() for key, value in values.items()}

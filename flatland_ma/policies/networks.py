@@ -164,10 +164,17 @@ class PPONetwork(nn.Module):
         return self.core is not None or self.frames > 1
 
     def features(self, observation) -> torch.Tensor:
+        return self.join(self.encodings(observation))
+
+    def encodings(self, observation) -> dict[str, torch.Tensor]:
+        """Each entry's encoding, by the entry's key, in the layer's order."""
         if self.dict_input:
-            parts = [module(observation[key]) for key, module in self.inputs.items()]
-        else:
-            parts = [self.inputs["observation"](observation)]
+            return {key: module(observation[key]) for key, module in self.inputs.items()}
+        return {"observation": self.inputs["observation"](observation)}
+
+    def join(self, encodings: dict[str, torch.Tensor]) -> torch.Tensor:
+        """What the heads read, from the entries' ``encodings``."""
+        parts = list(encodings.values())
         return self.body(torch.cat(parts, dim=1) if len(parts) > 1 else parts[0])
 
     def step(

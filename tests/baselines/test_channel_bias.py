@@ -44,7 +44,8 @@ def test_the_other_speakers_words_change_and_the_rows_own_and_the_heard_flags_st
     said = torch.tensor([[1.0, 1, 0, 0], [1.0, 0, 0, 1]])  # speaker 0 said word 0, 1 word 2
     messages = said.expand(5, 2, 4).clone()
     index = torch.tensor([0, 1, 2, 3, 5])  # slots 0, 1, 2, 3, 1: agents 0, 1, 0, 1, 1
-    changed = bias.changed(messages, index)
+    assert bias.speakers(index).tolist() == [0, 1, 0, 1, 1]
+    changed = bias.changed(messages, bias.speakers(index))
     for row, agent in enumerate([0, 1, 0, 1, 1]):
         other = 1 - agent
         assert torch.equal(changed[row, agent], messages[row, agent])  # its own words
@@ -96,8 +97,13 @@ def test_the_signalling_term_asks_each_agents_words_to_vary_not_the_roles_to_dif
         def __init__(self, words):
             super().__init__()
             self.inputs = torch.nn.ModuleDict({"messages": torch.nn.Flatten()})
-            self.body = torch.nn.Identity()
             self.words = words
+
+        def encodings(self, observation):
+            return {"messages": self.inputs["messages"](observation["messages"])}
+
+        def join(self, encodings):
+            return encodings["messages"]
 
         def actor(self, h):
             return torch.cat([torch.zeros(len(h), 3), self.words], dim=1)
