@@ -166,11 +166,18 @@ def test_learner_speed_measures_every_part_and_the_loop(tmp_path):
         num_envs=2, num_steps=16, rollouts=1, loop_timesteps=64, json=str(tmp_path / "b.json")
     )
     figures = learner_speed.main(args)
-    assert set(figures["parts_per_cpu_second"]) == {"env", "act", "update"}
-    assert all(rate > 0 for rate in figures["parts_per_cpu_second"].values())
-    rates = figures["parts_per_cpu_second"].values()
-    assert figures["allowed_per_cpu_second"] < min(rates)
+    rates = figures["parts_per_cpu_second"]
+    assert set(rates) == {"env", "act", "update", "in_turn"}
+    assert all(rate > 0 for rate in rates.values())
+    assert figures["allowed_per_cpu_second"] < min(rates[p] for p in ("env", "act", "update"))
+    # in turn: the env and the acting pass of one step each, so slower than either alone
+    assert figures["allowed_in_turn_per_cpu_second"] < min(rates["in_turn"], rates["update"])
     assert set(figures["loops"]) == {"serial", "overlapped"}
+    for loop in figures["loops"].values():
+        assert loop["efficiency_in_turn"] == pytest.approx(
+            loop["per_cpu_second"] / figures["allowed_in_turn_per_cpu_second"]
+        )
     assert figures["loops"]["overlapped"]["policy_lag"] == 1
     assert json.loads((tmp_path / "b.json").read_text())["scenario"] == "fruits_poisons"
     assert "parts allow" in learner_speed.report(figures)
+    assert "in turn allow" in learner_speed.report(figures)
