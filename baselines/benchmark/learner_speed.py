@@ -19,10 +19,10 @@ on the run's own scenario, worlds and network:
 The parts allow ``1 / (1/env + 1/act + 1/update)`` agent-steps per CPU-second; the
 loop's efficiency is its rate against that. ``1 / (1/in turn + 1/update)`` is what they
 allow stepped in turn: the loop's rate against that says what the loop adds beyond the
-caches' share. Each part is timed in slices alternating
-with the others', so that a machine whose speed drifts moves them alike; the machine's
-load average is printed beside them, and a calibration (a fixed matrix product, timed in
-the same run) says how fast the machine was.
+caches' share. Each part is timed in slices alternating with the others', so that a
+machine whose speed drifts moves them alike; the machine's load average is printed
+beside them, and a calibration (a fixed matrix product, timed in the same run) says how
+fast the machine was.
 
     python -m baselines.benchmark.learner_speed --scenario fruits_poisons --num-envs 16
 """
@@ -104,25 +104,26 @@ class Parts:
             self.env.step(action)
         self._add("env", start, len(self.actions) * self.env.num_slots)
 
+    def _act(self, t: int) -> None:
+        """The acting pass of step ``t``: the observation copied into the rollout, then
+        the forward pass and sampling for every slot (no gradient)."""
+        for into, x in zip(tree_leaves(self.rollout.observations), tree_leaves(self.observation)):
+            into[t].copy_(torch.from_numpy(x))
+        self.agent.act(self.rollout.views[t])
+
     def time_act(self) -> None:
-        views, stored = self.rollout.views, tree_leaves(self.rollout.observations)
         start = cpu_seconds()
         with torch.no_grad():
             for t in range(self.args.num_steps):
-                for into, x in zip(stored, tree_leaves(self.observation)):
-                    into[t].copy_(torch.from_numpy(x))
-                self.agent.act(views[t])
+                self._act(t)
         self._add("act", start, self.args.num_steps * self.env.num_slots)
 
     def time_in_turn(self) -> None:
         """The env and the acting pass one after the other, each step."""
-        views, stored = self.rollout.views, tree_leaves(self.rollout.observations)
         start = cpu_seconds()
         with torch.no_grad():
             for t, action in enumerate(self.actions):
-                for into, x in zip(stored, tree_leaves(self.observation)):
-                    into[t].copy_(torch.from_numpy(x))
-                self.agent.act(views[t])
+                self._act(t)
                 self.observation = self.env.step(action)[0]
         self._add("in_turn", start, len(self.actions) * self.env.num_slots)
 

@@ -2,12 +2,13 @@
 
 A task is fair to a learner only if what it must know is in its observations in a form a
 network can read. This probe asks that apart from reinforcement learning: it resets the
-scenario at ``episodes`` seeds, labels each episode with the zone that holds the goal
-(the scenario's zones in order; the goal is the item that pays most; episodes whose goal
-lies in no zone are left out), and trains ``baselines.ppo``'s own network (its encoders
-and hidden layer, a head of one logit per zone) to tell the zone from the agent's first
-observation, by cross-entropy on four fifths of the episodes. It reports the accuracy on
-the other fifth, held out, beside chance (the commonest zone's share), epoch by epoch.
+scenario at ``episodes`` seeds, labels each episode with the room that holds the goal
+(the rooms a channel's words name: the zones that pay nothing, in order; the goal is the
+item that pays most; episodes whose goal lies in no room are left out), and trains
+``baselines.ppo``'s own network (its encoders and hidden layer, a head of one logit per
+room) to tell the room from the agent's first observation, by cross-entropy on four
+fifths of the episodes. It reports the accuracy on the other fifth, held out, beside
+chance (the commonest room's share), epoch by epoch.
 
 A held-out accuracy near chance says the observation does not show the answer in a way
 this network learns from this many examples; near 1, that it does, and a learner that
@@ -29,10 +30,12 @@ import numpy as np
 import torch
 import tyro
 from gymnasium import spaces
+from torch.utils._pytree import tree_map
 
 import flatland_ma
 from baselines.common import input_channels
 from baselines.networks import Agent
+from flatland_ma.policies.signals import room_holding, rooms_of
 from flatland_ma.world.entities import Item
 
 
@@ -56,37 +59,27 @@ class Args:
 
 
 def goal_zone(env) -> int | None:
-    """The index of the scenario's zone that holds the episode's goal (the visible item
-    that pays most), or None if no zone does."""
+    """The index of the room (``rooms_of``: the zones words name) that holds the
+    episode's goal (the visible item that pays most), or None if none does."""
     items = [i for i in env.episode.world.of_type(Item) if i.visible and i.reward > 0]
     if not items:
         return None
-    goal = max(items, key=lambda i: i.reward)
-    x, y = goal.body.position
-    for k, zone in enumerate(env.spec.zones):
-        if zone.rect is None:  # placed at random each episode: not a fixed place to name
-            continue
-        x0, y0, x1, y1 = zone.rect
-        if x0 <= x <= x1 and y0 <= y <= y1:
-            return k
-    return None
+    return room_holding(rooms_of(env.spec), max(items, key=lambda i: i.reward).body.position)
 
 
 @dataclass
 class Episodes:
-    """Each labelled episode's first observation (stacked by entry; ``""`` for a ``Box``)
-    and its goal's zone; the agent's observation space and the zones' names."""
+    """Each labelled episode's first observation (an array, or a dict of arrays, rows
+    first) and its goal's zone; the agent's observation space and the zones' names."""
 
-    observations: dict[str, np.ndarray]
+    observations: np.ndarray | dict[str, np.ndarray]
     labels: np.ndarray
     space: spaces.Space
     zones: list[str]
 
     def rows(self, index: torch.Tensor):
         """The observations of episodes ``index``, as the network reads them."""
-        if "" in self.observations:
-            return torch.from_numpy(self.observations[""][index.numpy()])
-        return {k: torch.from_numpy(v[index.numpy()]) for k, v in self.observations.items()}
+        return tree_map(lambda x: torch.from_numpy(x[index.numpy()]), self.observations)
 
 
 def first_observations(args: Args) -> Episodes:
@@ -95,8 +88,9 @@ def first_observations(args: Args) -> Episodes:
     env = flatland_ma.parallel_env(args.scenario)
     if args.agent not in env.possible_agents:
         raise ValueError(f"{args.agent!r} is no agent of {args.scenario}: {env.possible_agents}")
-    if len(env.spec.zones) < 2:
-        raise ValueError(f"{args.scenario} has {len(env.spec.zones)} zones: nothing to tell apart")
+    rooms = rooms_of(env.spec)
+    if len(rooms) < 2:
+        raise ValueError(f"{args.scenario} has {len(rooms)} rooms (zones that pay nothing)")
     space = env.observation_space(args.agent)
     rows, labels = [], []
     for seed in range(args.episodes):
@@ -106,12 +100,11 @@ def first_observations(args: Args) -> Episodes:
             rows.append(observations[args.agent])
             labels.append(zone)
     env.close()
-    if isinstance(space, spaces.Dict):
-        stacked = {key: np.stack([row[key] for row in rows]) for key in space.spaces}
-    else:
-        stacked = {"": np.stack(rows)}
-    zones = [zone.name or f"zone {k}" for k, zone in enumerate(env.spec.zones)]
-    return Episodes(stacked, np.array(labels, np.int64), space, zones)
+    stacked = tree_map(lambda *xs: np.stack(xs), *rows)
+    names = [
+        z.name or f"room {k}" for k, z in enumerate(z for z in env.spec.zones if z.rect in rooms)
+    ]
+    return Episodes(stacked, np.array(labels, np.int64), space, names)
 
 
 def probe(args: Args) -> dict:

@@ -29,6 +29,11 @@ def _inside(rect, point) -> bool:
     return rect[0] <= point[0] <= rect[2] and rect[1] <= point[1] <= rect[3]
 
 
+def room_holding(rooms, point) -> int | None:
+    """The index of the first of ``rooms`` (``rooms_of``) that holds ``point``, or None."""
+    return next((k for k, rect in enumerate(rooms) if _inside(rect, point)), None)
+
+
 def _wanted(episode, rect) -> list[Item]:
     return [
         i
@@ -57,8 +62,8 @@ class Signaller:
             key=lambda i: (i.body.position - me).length,
             default=None,
         )
-        rooms = [] if goal is None else [_inside(r, goal.body.position) for r in self.rooms]
-        word = rooms.index(True) if True in rooms else 0
+        room = None if goal is None else room_holding(self.rooms, goal.body.position)
+        word = 0 if room is None else room
         return self.motion.action(0.0, 1.0, [word] * self.motion.words)
 
 

@@ -32,7 +32,7 @@ def fake_episodes(labels: np.ndarray, shown: np.ndarray) -> readout.Episodes:
     observations = np.zeros((len(labels), 4), np.float32)
     observations[:, 0] = shown
     space = spaces.Box(-1.0, 1.0, (4,), np.float32)
-    return readout.Episodes({"": observations}, labels, space, ["north", "south"])
+    return readout.Episodes(observations, labels, space, ["north", "south"])
 
 
 def test_the_probe_learns_an_answer_the_observation_shows(monkeypatch, tmp_path):
@@ -61,5 +61,5 @@ def test_the_probe_does_not_learn_an_answer_the_observation_hides(monkeypatch):
 def test_what_cannot_be_probed_is_refused():
     with pytest.raises(ValueError, match="no agent"):
         readout.first_observations(readout.Args(agent="nobody", episodes=2))
-    with pytest.raises(ValueError, match="zones"):
+    with pytest.raises(ValueError, match="rooms"):
         readout.first_observations(readout.Args(scenario="fruits_poisons", agent="agent_0"))
