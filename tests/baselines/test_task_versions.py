@@ -30,6 +30,7 @@ def test_a_scenario_is_at_version_0_unless_its_file_says_otherwise():
         said = yaml.safe_load(path.read_text(encoding="utf-8")).get("version", 0)
         assert flatland_ma.load_scenario(path.stem).version == said, path.stem
     assert flatland_ma.load_scenario("signal_rooms").version == 2  # bumped 2026-12-01, 2026-12-02
+    assert flatland_ma.load_scenario("signal_maps").version == 1  # bumped 2026-12-02
     assert flatland_ma.load_scenario("fruits_poisons", version=3).version == 3
     for wrong in (-1, 1000, "1", 1.0, True):
         with pytest.raises(ScenarioError, match="version"):
