@@ -64,7 +64,7 @@ from baselines.ppo_episodes import Episodes
 from baselines.ppo_learner import Overlapped, Rollout, keep_freed_memory
 from baselines.ppo_memory import MemoryRollout
 from baselines.ppo_presets import with_preset
-from baselines.ppo_resume import Resumed, progress, prune
+from baselines.ppo_resume import Resumed, progress, prune, start_from
 from baselines.shaping import learning_reward
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
@@ -216,6 +216,8 @@ class Training:
         )
         if resumed is not None:
             resumed.load(agent, self.optimizer)
+        elif args.init_from:
+            start_from(agent, args.init_from)
         # The numeric entries of the infos (not, e.g., the tuple of keys an agent holds).
         counters = tuple(k for k in infos if k != "active" and infos[k].dtype.kind in "iuf")
         self.overlapped = (

@@ -64,6 +64,11 @@ class Args:
     resume: bool = False
     """Go on from the newest of those checkpoints, if there is one (``baselines.ppo_resume``:
     the same arguments; the worlds start new episodes there)."""
+    init_from: str = ""
+    """A checkpoint whose network weights the run starts from (its optimiser starts anew):
+    one of the same spaces and network options, e.g. the imitator of
+    ``baselines.benchmark.imitate``. Empty: random weights. Not with ``resume`` once the
+    run has checkpoints of its own (they are what it goes on from)."""
     tensorboard: bool = True
     """Write TensorBoard events beside the CSV."""
     torch_threads: int = 1

@@ -104,12 +104,28 @@ class Resumed:
     def load(self, agent, optimizer) -> None:
         """The checkpoint's network and optimiser state into this run's; ``ValueError``
         naming the file if they do not fit (e.g. a scenario changed since: other spaces)."""
-        try:
-            agent.load_state_dict(self.state["model"])
-            optimizer.load_state_dict(self.state["optimizer"])
-        except (RuntimeError, ValueError, KeyError) as err:
-            first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-            raise ValueError(f"{self.path}: does not fit this run's network: {first}") from None
+        load_into(self.path, agent, self.state["model"], optimizer, self.state["optimizer"])
+
+
+def start_from(agent, path: str) -> None:
+    """``path``'s network weights into ``agent`` (``--init-from``); ``ValueError`` naming
+    the file if it is no checkpoint or its network does not fit this run's."""
+    from flatland_ma.policies.checkpoint import load_checkpoint
+
+    _, _, state = load_checkpoint(path)
+    load_into(path, agent, state["model"])
+
+
+def load_into(path, agent, model: dict, optimizer=None, optimizer_state=None) -> None:
+    """A checkpoint's weights (and optimiser state) into this run's network (and
+    optimiser); ``ValueError`` naming ``path`` if they do not fit."""
+    try:
+        agent.load_state_dict(model)
+        if optimizer is not None:
+            optimizer.load_state_dict(optimizer_state)
+    except (RuntimeError, ValueError, KeyError) as err:
+        first = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise ValueError(f"{path}: does not fit this run's network: {first}") from None
 
 
 def progress(episodes: int, cpu: float, wall: float, resumed_at: list, began: list) -> dict:

@@ -17,6 +17,7 @@ from baselines.benchmark.tables import (
     runs_table,
     table,
 )
+from baselines.benchmark.within_reach import imitation_section
 
 
 def planned_text(tier: dict) -> str:
@@ -216,6 +217,8 @@ def render(summary: dict) -> str:
         lines += [*render_levels(summary["levels"]), ""]
     if summary.get("reach"):
         lines += reach_section(summary["reach"])
+    if summary.get("imitation") and "standard" in summary["tiers"]:
+        lines += imitation_section(summary["imitation"], summary["tiers"]["standard"]["rows"])
     return "\n".join([*lines, *provenance(summary)])
 
 

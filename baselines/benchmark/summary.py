@@ -17,6 +17,7 @@ from baselines.benchmark.reach import REACH
 from baselines.benchmark.records import check_current, read_results
 from baselines.benchmark.settings import LEARNED, METHODS, NO_CHANNEL, TIERS, BenchmarkConfig
 from baselines.benchmark.train import ppo_possible
+from baselines.benchmark.within_reach import IMITATION, read_imitation
 from flatland_ma.evaluation.stats import normalise, stratified_bootstrap
 
 SCALE_GAP = 1e-6
@@ -234,6 +235,7 @@ def build(root: Path, config: BenchmarkConfig, tasks=None, levels: Path | None =
         "open_loop": config.open_loop.model_dump(),
         "levels": read_levels(levels) if levels is not None else None,
         "reach": read_reach(root.parent / REACH.name),
+        "imitation": read_imitation(root.parent / IMITATION.name),
     }
 
 
