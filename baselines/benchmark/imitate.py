@@ -138,7 +138,9 @@ def sample(network: Agent, views: list) -> np.ndarray:
 def collect(worlds: Worlds, network: Agent | None, steps: int, base: int) -> dict:
     """Play until ``steps`` imitating steps are kept, the network driving the imitating
     agents (the solver if ``network`` is None); each kept step's view and the solver's
-    action, the driven episodes' returns and how often the network agreed."""
+    action, the returns of the episodes that ended within the round (episodes that end
+    early, as a goal found does, are over-represented among them: the held-out score is
+    the measure) and how often the network's actions were the solver's."""
     views, labels, returns, agreed = [], [], [], []
     observations = [worlds.reset(w, base) for w in range(len(worlds.envs))]
     totals = [dict.fromkeys(worlds.agents, 0.0) for _ in worlds.envs]
@@ -231,10 +233,40 @@ def then_ppo(args: Args, imitator: Path) -> dict:
     }
 
 
-def imitate(args: Args) -> dict:
-    """Every round, then the final network's held-out score."""
-    torch.manual_seed(args.seed)
+def teach(args: Args, worlds: Worlds, network: Agent) -> list[dict]:
+    """The rounds: the solver's, then ``args.rounds`` of the network's, each followed by
+    training on every step kept so far; each round's figures."""
     rng = np.random.default_rng(args.seed)
+    optimizer = torch.optim.Adam(network.parameters(), lr=args.learning_rate)
+    kept_views: list = []
+    kept_labels: list = []
+    rounds = []
+    for k in range(args.rounds + 1):
+        base = TRAINING_SEED + args.seed * 100_000
+        got = collect(worlds, network if k else None, args.steps, base)
+        kept_views += got["views"]
+        kept_labels += got["labels"]
+        views = tree_map(lambda *xs: np.stack(xs), *kept_views)
+        loss = train(network, optimizer, views, np.stack(kept_labels), args, rng)
+        driven = np.mean(got["returns"]) if got["returns"] else None
+        rounds.append(
+            {
+                "round": k,
+                "driver": "network" if k else "solver",
+                "episodes": len(got["returns"]),
+                "return": None if driven is None else round(float(driven), 6),
+                "agreement": got["agreement"],
+                "steps_kept": len(kept_labels),
+                "loss": loss,
+            }
+        )
+        print(_round_text(rounds[-1]), flush=True)
+    return rounds
+
+
+def imitate(args: Args) -> dict:
+    """Every round, then the final network's held-out score (and PPO's from it)."""
+    torch.manual_seed(args.seed)
     worlds = Worlds(args)
     shape = standard_args(args)
     network = Agent(
@@ -244,31 +276,8 @@ def imitate(args: Args) -> dict:
         input_channels(shape.use_depth),
         shape.network,
     )
-    optimizer = torch.optim.Adam(network.parameters(), lr=args.learning_rate)
-    kept_views: list = []
-    kept_labels: list = []
-    rounds = []
     try:
-        for k in range(args.rounds + 1):
-            base = TRAINING_SEED + args.seed * 100_000
-            got = collect(worlds, network if k else None, args.steps, base)
-            kept_views += got["views"]
-            kept_labels += got["labels"]
-            views = tree_map(lambda *xs: np.stack(xs), *kept_views)
-            loss = train(network, optimizer, views, np.stack(kept_labels), args, rng)
-            driven = np.mean(got["returns"]) if got["returns"] else None
-            rounds.append(
-                {
-                    "round": k,
-                    "driver": "network" if k else "solver",
-                    "episodes": len(got["returns"]),
-                    "return": None if driven is None else round(float(driven), 6),
-                    "agreement": got["agreement"],
-                    "steps_kept": len(kept_labels),
-                    "loss": loss,
-                }
-            )
-            print(_round_text(rounds[-1]), flush=True)
+        rounds = teach(args, worlds, network)
     finally:
         worlds.close()
     path = Path(args.checkpoint or f"runs/imitate/{args.scenario}/seed_{args.seed}{SUFFIX}")
