@@ -233,21 +233,48 @@ def then_ppo(args: Args, imitator: Path) -> dict:
     }
 
 
+class Kept:
+    """Every step kept so far, in arrays made once for all the rounds' steps (one copy of
+    the data: a map of 64 x 64 pixels is 49 kB a step)."""
+
+    def __init__(self, capacity: int):
+        self.capacity, self.count = capacity, 0
+        self.views = None
+        self.labels = None
+
+    def add(self, views: list, labels: list) -> None:
+        if self.views is None:
+            self.views = tree_map(
+                lambda x: np.empty((self.capacity, *np.shape(x)), np.asarray(x).dtype), views[0]
+            )
+            self.labels = np.empty((self.capacity, len(labels[0])), np.int64)
+        start, end = self.count, self.count + len(labels)
+        for row, view in enumerate(views, start):
+            tree_map(lambda buffer, x, row=row: buffer.__setitem__(row, x), self.views, view)
+        assert self.labels is not None
+        self.labels[start:end] = labels
+        self.count = end
+
+    def arrays(self):
+        """The views and labels kept (views of the arrays, no copy)."""
+        assert self.labels is not None
+        return tree_map(lambda x: x[: self.count], self.views), self.labels[: self.count]
+
+
 def teach(args: Args, worlds: Worlds, network: Agent) -> list[dict]:
     """The rounds: the solver's, then ``args.rounds`` of the network's, each followed by
     training on every step kept so far; each round's figures."""
     rng = np.random.default_rng(args.seed)
     optimizer = torch.optim.Adam(network.parameters(), lr=args.learning_rate)
-    kept_views: list = []
-    kept_labels: list = []
+    # a round keeps at most a step of every agent of every world beyond ``steps``
+    kept = Kept((args.rounds + 1) * (args.steps + len(worlds.envs) * len(worlds.agents)))
     rounds = []
     for k in range(args.rounds + 1):
         base = TRAINING_SEED + args.seed * 100_000
         got = collect(worlds, network if k else None, args.steps, base)
-        kept_views += got["views"]
-        kept_labels += got["labels"]
-        views = tree_map(lambda *xs: np.stack(xs), *kept_views)
-        loss = train(network, optimizer, views, np.stack(kept_labels), args, rng)
+        kept.add(got["views"], got["labels"])
+        del got["views"]
+        loss = train(network, optimizer, *kept.arrays(), args, rng)
         driven = np.mean(got["returns"]) if got["returns"] else None
         rounds.append(
             {
@@ -256,7 +283,7 @@ def teach(args: Args, worlds: Worlds, network: Agent) -> list[dict]:
                 "episodes": len(got["returns"]),
                 "return": None if driven is None else round(float(driven), 6),
                 "agreement": got["agreement"],
-                "steps_kept": len(kept_labels),
+                "steps_kept": kept.count,
                 "loss": loss,
             }
         )
