@@ -34,6 +34,27 @@ def reading(imitator: float, ppo: float | None, started: float | None = None) ->
     return "not imitated: one observation does not show the solver's way"
 
 
+def table_row(name: str, record: dict, row: dict | None) -> list[str]:
+    """One probed task's cells; ``row``: its row of the standard tier (None if absent)."""
+    ours = None if row is None else row["normalised"]
+    ppo_iqm = None if ours is None else ours["iqm"]
+    scripted = None if row is None or row["scripted"] is None else row["scripted"]["iqm"]
+    steps = record["rounds"][-1]["steps_kept"]
+    then = record.get("then_ppo")
+    started = None if then is None else then["normalised"]
+    return [
+        f"`{name}`",
+        "-" if scripted is None else f"{scripted:.3g}",
+        figure_text(ours) or "-",
+        f"{record['held_out']:.3g} ({record['normalised']:.3g})",
+        "-" if then is None else f"{then['held_out']:.3g} ({started:.3g})",
+        f"{len(record['rounds']) - 1} rounds, {steps:,} steps"
+        + ("" if then is None else f"; PPO {then['agent_steps']:,} agent-steps"),
+        f"{record['cpu_seconds'] / 60:.1f} min",
+        reading(record["normalised"], ppo_iqm, started),
+    ]
+
+
 def imitation_section(records: dict, rows: list[dict]) -> list[str]:
     """The section: one row per probed scenario of its current version; ``rows``: the
     standard tier's rows (PPO's figures), by task."""
@@ -44,26 +65,7 @@ def imitation_section(records: dict, rows: list[dict]) -> list[str]:
         if {name: record["version"]} != task_versions(name, "scenario"):
             stale.append(name)
             continue
-        row = by_task.get(name)
-        ours = None if row is None else row["normalised"]
-        ppo_iqm = None if ours is None else ours["iqm"]
-        scripted = None if row is None or row["scripted"] is None else row["scripted"]["iqm"]
-        steps = record["rounds"][-1]["steps_kept"]
-        then = record.get("then_ppo")
-        started = None if then is None else then["normalised"]
-        current.append(
-            [
-                f"`{name}`",
-                "-" if scripted is None else f"{scripted:.3g}",
-                figure_text(ours) or "-",
-                f"{record['held_out']:.3g} ({record['normalised']:.3g})",
-                "-" if then is None else f"{then['held_out']:.3g} ({started:.3g})",
-                f"{len(record['rounds']) - 1} rounds, {steps:,} steps"
-                + ("" if then is None else f"; PPO {then['agent_steps']:,} agent-steps"),
-                f"{record['cpu_seconds'] / 60:.1f} min",
-                reading(record["normalised"], ppo_iqm, started),
-            ]
-        )
+        current.append(table_row(name, record, by_task.get(name)))
     lines = [
         "## Within reach of what the agent sees",
         "",
