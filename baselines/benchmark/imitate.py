@@ -99,14 +99,17 @@ class Worlds:
         self.padding = Padding.of(first)
         self.space = self.padding.space if self.padding else first.observation_space(self.agents[0])
         self.action_space = first.action_space(self.imitating[0])
+        others = [a for a in self.agents if a not in self.imitating]
         self.experts = [
-            {a: make_policy(names[a], env, a, args.seed * 1000 + w) for a in self.agents}
+            {a: make_policy(names[a], env, a, args.seed * 1000 + w) for a in self.imitating}
             for w, env in enumerate(self.envs)
         ]
+        """Each world's solver of each imitating agent."""
         self.random = [
-            {a: make_policy("random", env, a, args.seed * 1000 + w) for a in self.agents}
+            {a: make_policy("random", env, a, args.seed * 1000 + w) for a in others}
             for w, env in enumerate(self.envs)
         ]
+        """Each world's random play of each agent the benchmark does not score."""
         self.episodes = 0
 
     def view(self, agent: str, observation):
