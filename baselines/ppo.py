@@ -8,30 +8,29 @@ channel what it hears; it acts in ``Discrete`` moves, or ``MultiDiscrete`` moves
 (one head per component). Agents whose observations differ (roles with other sensors, as in
 ``plate_relay`` or ``signal_rooms``) share it through one padded observation that names
 each slot's role (``pad=True``, ``flatland_ma.envs.padding``); their actions must agree.
-The update is CleanRL's PPO (clipped objective, GAE, value clipping,
-advantage normalisation, annealed learning rate), with its default settings unless stated.
+The update is CleanRL's PPO (clipped objective, GAE, value clipping, advantage
+normalisation, annealed learning rate), with its default settings unless stated.
 
 Slots whose action the env does not use on a step are left out of the update: an agent
 that finished while its world plays on (``infos["active"]`` False), and every slot of a
 world being reset (the batched env resets in Gymnasium's NEXT_STEP mode). A truncated
 episode bootstraps from the value of its last observation, which that mode returns.
 
-Options beyond CleanRL's, each off by default: ``--preset NAME``, settings chosen for a
-task (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's
-summed reward, and ``--shaping W``, a potential-based term for delivery and goal tasks
-(``baselines.shaping``); ``--listening W`` and ``--signalling W``, biases towards using
-the channel (``baselines.channel_bias``); ``--curriculum FILE``, the tasks of a stream
-file in turn (``baselines.curriculum``); ``--memory gru`` and ``--frames K``, a policy
-with memory (``baselines.ppo_memory``); ``--resume``, go on with an interrupted run from
-its newest checkpoint (``baselines.ppo_resume``). The options are
-``baselines.ppo_args.Args``. The log always keeps each agent's own, unshaped return.
+Options beyond CleanRL's, each off by default (``baselines.ppo_args.Args``): ``--preset``
+(``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's summed
+reward; ``--shaping W``, a potential-based term for delivery and goal tasks
+(``baselines.shaping``); ``--novelty W``, an exploration bonus (``baselines.novelty``);
+``--listening W``, ``--signalling W``, biases towards using the channel
+(``baselines.channel_bias``); ``--curriculum FILE``, a stream's tasks in turn
+(``baselines.curriculum``); ``--memory gru``, ``--frames K``, memory
+(``baselines.ppo_memory``); ``--resume`` (``baselines.ppo_resume``). The log always keeps
+each agent's own, unshaped return.
 
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
 episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
 JSON description and the optimiser's state: ``flatland_ma.policies.checkpoint``), and in
 ``seed_<seed>/`` a checkpoint every ``--checkpoint-every`` updates and the TensorBoard
-events (``tensorboard --logdir runs``). ``flatland-ma record SCENARIO --policy
-seed_0.safetensors`` plays a checkpoint.
+events. ``flatland-ma record SCENARIO --policy seed_0.safetensors`` plays a checkpoint.
 
     python -m baselines.ppo --scenario fruits_poisons_multi --seed 0 --total-timesteps 1000000
 """
@@ -47,6 +46,7 @@ import numpy as np
 import torch
 import tyro
 
+from baselines.buffers import keep_freed_memory
 from baselines.channel_bias import channel_bias
 from baselines.common import (
     RunLog,
@@ -59,9 +59,10 @@ from baselines.common import (
 )
 from baselines.curriculum import Stage, curriculum_stages
 from baselines.networks import Agent
+from baselines.novelty import for_run, kept_with
 from baselines.ppo_args import Args
 from baselines.ppo_episodes import Episodes
-from baselines.ppo_learner import Overlapped, Rollout, keep_freed_memory
+from baselines.ppo_learner import Overlapped, Rollout
 from baselines.ppo_memory import MemoryRollout
 from baselines.ppo_presets import with_preset
 from baselines.ppo_resume import Resumed, progress, prune, start_from
@@ -191,12 +192,10 @@ class Training:
         stage = self.stages[self.stage] if self.stages else None
         self.env = env = batched_env(args, stage)
         self.learns = learner_slots(args, env, stage)
-        """The slots that learn (every one but with ``--learners`` or a stage's ``focal``):
-        whose steps count."""
+        """The slots that learn (all but with ``--learners`` or a stage's ``focal``)."""
         self.iterations = run_iterations(args, self.stages, env, self.learns, total_timesteps)
-        # Start-up, outside the timed run: the first reset (numba's kernels, compiled or read
-        # from their cache), the network and the optimiser (its first import of torch's
-        # compiler takes a second or more).
+        # Start-up, outside the timed run: the first reset (numba's kernels compiled or read),
+        # the network and the optimiser (its first import of torch's compiler takes a second).
         self.observation, infos = env.reset(seed=seed * args.num_envs)
         self.agent = agent = Agent(
             env.single_observation_space,
@@ -228,7 +227,9 @@ class Training:
         )
         self.space = env.single_observation_space
         """The first stage's observations, which the checkpoints describe."""
+        self.novelty = novelty = for_run(args, env, self.observation, seed, resumed)
         for rollout in self.rollouts:
+            rollout.novelty = novelty
             rollout.learns = self.learns
             rollout.background = np.random.default_rng([seed, 1])
             rollout.partners = partner_policies(env, stage, seed)
@@ -316,6 +317,7 @@ class Training:
         sps = episodes.global_step / (time.perf_counter() - start)
         for key, value in {
             **stats,
+            **(self.novelty.stats if self.novelty is not None else {}),
             "charts/learning_rate": lr,
             "charts/agent_steps_per_s": sps,
         }.items():
@@ -337,7 +339,7 @@ class Training:
             scenario=args.scenario,
             observation_space=self.space,
             action_space=self.env.single_action_space,
-            optimizer=self.optimizer.state_dict(),
+            optimizer=kept_with(self.optimizer.state_dict(), self.novelty),
             extra={
                 "algorithm": "ppo",
                 # self-play: every slot is this policy, or its team beside random play
@@ -354,8 +356,7 @@ class Training:
     def finish(self, start: float, cpu_start: float, setup_cpu: float, machine_start) -> dict:
         """The final checkpoint, the log closed with the run's summary (its JSON), which
         is returned. ``machine_start``: the load average and the calibration (matrix
-        products per CPU-second, ``common.calibration``) at the start; both are taken
-        again at the end."""
+        products per CPU-second, ``common.calibration``) at the start, taken again here."""
         load_start, calibrated = machine_start
         overlapped, global_step = self.overlapped, self.episodes.global_step
         if overlapped is not None:

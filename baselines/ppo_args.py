@@ -1,6 +1,6 @@
 """The options of ``baselines.ppo`` (its command line, through tyro): CleanRL's PPO
 settings with their defaults, and the options beyond them (presets, team reward, shaping,
-curricula, memory, overlapped collection, resuming)."""
+curricula, exploration, memory, overlapped collection, resuming)."""
 
 from __future__ import annotations
 
@@ -108,6 +108,10 @@ class Args:
     learner's ``gamma`` (the optimal policies stay as they were); 1, the plain progress
     towards the target each step, without the bonus ``(1 - gamma) |Phi|`` a step that the
     learner's gamma pays for being far away."""
+    novelty: float = 0.0
+    """Weight of an exploration bonus from the observations alone, random network
+    distillation (``baselines.novelty``): the predictor's error on what each step
+    returned, over a running scale of it, added to the (scaled) reward; 0: none."""
     curriculum: str = ""
     """A stream file whose tasks the run trains on in turn (``baselines.curriculum``), for
     their steps in all (``total_timesteps`` is then not used); empty: ``scenario`` alone."""

@@ -22,8 +22,6 @@ Written for speed as well as for the maths, since the learner must keep up with 
 from __future__ import annotations
 
 import copy
-import ctypes
-import ctypes.util
 import threading
 import time
 
@@ -31,46 +29,12 @@ import gymnasium
 import numba as nb
 import numpy as np
 import torch
-from torch.utils._pytree import tree_flatten, tree_leaves, tree_map, tree_unflatten
+from torch.utils._pytree import tree_leaves, tree_map
 
+from baselines.buffers import Gather
 from baselines.networks import Agent
 from baselines.ppo_loss import descend
 from flatland_ma.envs.vector import slot_observation
-
-
-def keep_freed_memory() -> bool:
-    """Ask glibc to keep freed memory for reuse: no trimming of the heap, and blocks up to
-    its largest threshold (32 MiB) from the heap rather than from fresh mappings. Returns
-    whether it was set (False off glibc)."""
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name)
-        mallopt = libc.mallopt
-    except (OSError, AttributeError, TypeError):
-        return False
-    M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
-    return bool(mallopt(M_TRIM_THRESHOLD, 1 << 30)) and bool(mallopt(M_MMAP_THRESHOLD, 1 << 25))
-
-
-class Gather:
-    """Rows of a tree of tensors (rows first), gathered into buffers of this object's own
-    that the next call overwrites: ``gather(tree, index)`` is ``tree_map(lambda x:
-    x[index], tree)``, number for number, without a new allocation per call while
-    ``index`` is no longer than before. What it returns is valid until the next call."""
-
-    def __init__(self):
-        self._buffers: list[torch.Tensor] = []
-
-    def __call__(self, tree, index: torch.Tensor):
-        leaves, spec = tree_flatten(tree)
-        n = len(index)
-        if len(self._buffers) != len(leaves) or any(
-            b.shape[0] < n or b.shape[1:] != x.shape[1:] or b.dtype != x.dtype
-            for b, x in zip(self._buffers, leaves)
-        ):
-            self._buffers = [x.new_empty((n, *x.shape[1:])) for x in leaves]
-        rows = [torch.index_select(x, 0, index, out=b[:n]) for x, b in zip(leaves, self._buffers)]
-        return tree_unflatten(rows, spec)
 
 
 @nb.njit(cache=True)
@@ -206,6 +170,10 @@ class Rollout:
         self.bias = None
         """The channel's biases added to the update's loss (``baselines.channel_bias``;
         None: none)."""
+        self.novelty = None
+        """An exploration bonus added to the rewards learnt from (``baselines.novelty``)."""
+        self.final = None
+        """What the rollout's last step returned, kept for ``novelty``."""
 
     def collect(
         self, agent: Agent, env, observation, reward_scale: float, after_step, learn_from=None
@@ -251,6 +219,8 @@ class Rollout:
         next_state = None if self.states is None else torch.from_numpy(slot_states(env))
         with torch.no_grad():
             self.next_value = self.bootstrap(agent, observation, next_state)
+        if self.novelty is not None:  # a copy: the env writes its next step over its own
+            self.final = tree_map(np.copy, observation)
         return observation
 
     def _partner_actions(self, chosen: np.ndarray, observation) -> None:
@@ -284,9 +254,13 @@ class Rollout:
         return agent.value(tree_map(torch.from_numpy, observation), state)
 
     def advantages(self, args) -> torch.Tensor:
-        """GAE over the rollout, bootstrapped from ``next_value``."""
+        """GAE over the rollout, bootstrapped from ``next_value``, with ``novelty``'s
+        bonus added to the rewards (and its predictor trained) if there is one."""
+        rewards = self.rewards
+        if self.novelty is not None:
+            rewards = rewards + self.novelty.bonus(self.observations, self.final, self.acting)
         return gae(
-            self.rewards,
+            rewards,
             self.values,
             self.ends,
             self.stops,

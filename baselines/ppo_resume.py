@@ -104,7 +104,15 @@ class Resumed:
     def load(self, agent, optimizer) -> None:
         """The checkpoint's network and optimiser state into this run's; ``ValueError``
         naming the file if they do not fit (e.g. a scenario changed since: other spaces)."""
-        load_into(self.path, agent, self.state["model"], optimizer, self.state["optimizer"])
+        adam = {k: v for k, v in self.state["optimizer"].items() if k != "novelty"}
+        load_into(self.path, agent, self.state["model"], optimizer, adam)
+
+    def novelty(self) -> dict:
+        """The exploration bonus's state (``baselines.novelty``); ``ValueError`` naming
+        the file if the checkpoint has none."""
+        if "novelty" not in self.state["optimizer"]:
+            raise ValueError(f"{self.path}: no exploration bonus's state to go on from")
+        return self.state["optimizer"]["novelty"]
 
 
 def start_from(agent, path: str) -> None:

@@ -43,9 +43,10 @@ from torch.utils._pytree import tree_leaves
 import flatland_ma  # noqa: F401, I001 - first, before torch (flatland_ma.sensors.threads)
 from baselines import ppo
 from baselines.benchmark.machine import calibration
+from baselines.buffers import keep_freed_memory
 from baselines.common import cpu_seconds, input_channels
 from baselines.networks import Agent
-from baselines.ppo_learner import Rollout, keep_freed_memory
+from baselines.ppo_learner import Rollout
 
 
 @dataclass

@@ -19,8 +19,9 @@ from safetensors.torch import load_file
 
 from baselines import ppo
 from baselines.benchmark import learner_speed
+from baselines.buffers import Gather
 from baselines.networks import Agent
-from baselines.ppo_learner import Gather, Overlapped, gae
+from baselines.ppo_learner import Overlapped, gae
 from flatland_ma.envs.vector import BatchedParallelEnv
 
 ROOT = Path(__file__).resolve().parents[2]
