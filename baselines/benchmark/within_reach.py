@@ -24,7 +24,7 @@ def reading(imitator: float, ppo: float | None, started: float | None = None) ->
     """What the normalised scores of the imitator, of PPO from scratch and of PPO started
     from the imitator (if run) say together."""
     if started is not None and started >= HALF and (ppo is None or ppo < HALF):
-        return "PPO keeps the way once shown it: from scratch it does not find it"
+        return "PPO keeps the way once shown it: from scratch it stays below half"
     if started is not None and started < imitator - 0.1:
         return "shown but not held: PPO from the imitator loses what it does"
     if imitator >= HALF:
