@@ -57,7 +57,13 @@ from baselines.common import (
     seed_everything,
     threads_used,
 )
-from baselines.curriculum import Stage, curriculum_stages
+from baselines.curriculum import (
+    Stage,
+    curriculum_stages,
+    partner_policies,
+    stage_ends,
+    stages_record,
+)
 from baselines.networks import Agent
 from baselines.novelty import for_run, kept_with
 from baselines.ppo_args import Args
@@ -70,7 +76,6 @@ from baselines.shaping import learning_reward
 from baselines.writer import Scalars
 from flatland_ma.envs.shards import ShardedParallelEnv
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.lifelong.envs import policies_beside
 from flatland_ma.policies.checkpoint import SUFFIX, write_checkpoint
 
 
@@ -116,19 +121,6 @@ def learner_slots(args: Args, env, stage: Stage | None = None) -> np.ndarray:
         )
     own = [env.spec.team_of(j).name == args.learners for j in range(m)]
     return np.tile(np.array(own, bool), env.num_slots // m)
-
-
-def partner_policies(env, stage: Stage | None, seed: int) -> dict[int, object]:
-    """A curriculum stage's background policy at every slot that does not learn in it,
-    built for that slot's world (empty without a background)."""
-    if stage is None or stage.background is None or stage.focal is None:
-        return {}
-    m, rng = env.agents_per_world, np.random.default_rng([seed, 2])
-    return {
-        w * m + world.possible_agents.index(agent): policy
-        for w, world in enumerate(env.worlds)
-        for agent, policy in policies_beside(stage.background, world, stage.focal, rng).items()
-    }
 
 
 def run_iterations(args: Args, stages: list[Stage], env, learns: np.ndarray, total: int) -> int:
@@ -180,13 +172,12 @@ class Training:
         self.args = args
         self.stages = curriculum_stages(args.curriculum) if args.curriculum else []
         total_timesteps = sum(s.steps for s in self.stages) if self.stages else args.total_timesteps
-        self.ends = np.cumsum([s.steps for s in self.stages])
         self.csv_path = Path(args.csv or default_csv("ppo", run_name(args), args.seed))
         self.run_dir = self.csv_path.with_suffix("")
         self.resumed = resumed = Resumed.find(args, self.run_dir) if args.resume else None
         seed, self.stage = args.seed, 0
         if resumed is not None:  # new generators and episodes from here on
-            seed, self.stage = resumed.seed(args.seed), resumed.stage(self.ends)
+            seed, self.stage = resumed.seed(args.seed), len(resumed.began) - 1
             seed_everything(seed)
             torch.set_num_threads(args.torch_threads)
         stage = self.stages[self.stage] if self.stages else None
@@ -260,6 +251,10 @@ class Training:
         self.episodes.logged = self.learns[: self.env.agents_per_world].tolist()
         self.began = [0] if resumed is None else list(resumed.began)
         """The agent-step at which each stage of the curriculum began."""
+        self.ends = stage_ends(self.stages, self.began)
+        """The agent-step at which each stage's steps run out (``curriculum.stage_ends``)."""
+        if self.stages:
+            self.episodes.restart(self.stages[self.stage].over)
         self.first_iteration = 1 if resumed is None else resumed.update + 1
         self.started = (time.perf_counter(), cpu_seconds())
         """When and at what CPU time the timed run began (``main`` sets it)."""
@@ -282,16 +277,20 @@ class Training:
             rollout.learns = self.learns
             rollout.partners = partner_policies(self.env, stage, args.seed * 1000 + self.stage)
         self.episodes.logged = self.learns[: self.env.agents_per_world].tolist()
-        self.episodes.restart()
+        self.episodes.restart(stage.over)
         self.learn_from = learning_reward(args, self.env)
         self.began.append(step)
+        self.ends = stage_ends(self.stages, self.began)
         print(f"step={step} curriculum stage {self.stages[self.stage].name}", flush=True)
 
     def iterate(self, iteration: int, start: float) -> None:
         """One rollout and the update on it (the learning rate annealed), its scalars, and
         every ``checkpoint_every`` updates a checkpoint."""
         args, overlapped, episodes = self.args, self.overlapped, self.episodes
-        if self.stage + 1 < len(self.stages) and episodes.global_step >= self.ends[self.stage]:
+        if self.stage + 1 < len(self.stages) and (
+            episodes.global_step >= self.ends[self.stage]
+            or self.stages[self.stage].reached(episodes.recent)
+        ):
             self.next_stage()
         lr = args.learning_rate * (1 - (iteration - 1) / self.iterations)
         if overlapped is None:
@@ -381,9 +380,7 @@ class Training:
                 "wall": self.resumed.wall_seconds,
             }
         if self.stages:
-            machine["curriculum"] = [
-                {"name": s.name, "began": step} for s, step in zip(self.stages, self.began)
-            ]
+            machine["curriculum"] = stages_record(self.stages, self.began)
         busy = time.perf_counter() - start
         env_seconds = (overlapped or self.rollout).env_seconds
         summary = self.log.close(global_step, env_seconds, busy, extra=machine)

@@ -5,6 +5,8 @@ agents does."""
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 
 from baselines.common import RunLog
@@ -35,6 +37,9 @@ class Episodes:
         self.global_step = 0
         self.logged = [True] * agents_per_world
         """Which agents of a world the log keeps (``--learners``: those that learn)."""
+        self.recent: deque[float] = deque(maxlen=100)
+        """The latest returns the log kept since the worlds were made (a curriculum's
+        ``until`` reads them)."""
 
     def after_step(self, reward, terminated, done, infos, acted: int) -> None:
         m = self.agents_per_world
@@ -53,11 +58,14 @@ class Episodes:
                     self.log.episode(
                         self.global_step, episode_return, info, self.names[j], self.episodes
                     )
+                    self.recent.append(float(episode_return))
                     self.scalars.add("charts/episodic_return", episode_return, self.global_step)
                 print(f"step={self.global_step} episode={self.episodes} world={w}", flush=True)
                 self.episodes += 1
 
-    def restart(self) -> None:
-        """New worlds (a curriculum's next stage): no episode is under way."""
+    def restart(self, window: int = 100) -> None:
+        """New worlds (a curriculum's next stage): no episode is under way, and none of
+        the latest ``window`` returns is kept yet."""
         self.returns[:] = 0.0
         self.finished.clear()
+        self.recent = deque(maxlen=window)

@@ -96,11 +96,6 @@ class Resumed:
         """The seed of the worlds and generators from here on: one per run and update."""
         return seed * 1_000_003 + self.update
 
-    def stage(self, ends) -> int:
-        """The curriculum's stage under way at the checkpoint (``ends``: each stage's
-        last agent-step; a stage ends with the first rollout after it)."""
-        return sum(1 for end in ends[:-1] if self.agent_steps >= end)
-
     def load(self, agent, optimizer) -> None:
         """The checkpoint's network and optimiser state into this run's; ``ValueError``
         naming the file if they do not fit (e.g. a scenario changed since: other spaces)."""

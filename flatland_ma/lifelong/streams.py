@@ -14,6 +14,7 @@ A stream lives in ``scenarios/streams/NAME.yaml`` (``list_streams()``), or any f
         steps: 150000          # agent-steps of the learner
         focal: [agent_0]       # the agents the learner drives (default: every agent)
         background: greedy     # the shipped policy that drives every other agent
+        until: {mean_return: 5, episodes: 100}   # a curriculum's stage: end it early
 
 or, for the never-ending mode, one world and one episode that never ends while the
 items' values and places drift::
@@ -46,7 +47,7 @@ from flatland_ma.scenario.errors import Marks, ScenarioError, SpecError, locate
 from flatland_ma.scenario.loader import file_text, list_streams, stream_dir
 from flatland_ma.scenario.messages import problems_from
 from flatland_ma.scenario.schema import ScenarioSpec
-from flatland_ma.scenario.types import MAX_REWARD, Spec
+from flatland_ma.scenario.types import MAX_REWARD, Reward, Spec
 from flatland_ma.scenario.yaml_reader import parse_yaml
 
 Label = Annotated[str, Field(strict=True, pattern=r"^[a-z][a-z0-9_]*$", max_length=40)]
@@ -81,6 +82,19 @@ def _bounds(value: Any) -> tuple[float, float]:
 Bounds = Annotated[tuple[float, float], BeforeValidator(_bounds)]
 
 
+class UntilSpec(Spec):
+    """A curriculum stage's early end (``baselines.ppo --curriculum``): the stage ends once
+    the learner's last ``episodes`` episodes in it average a return of at least
+    ``mean_return``; its task's ``steps`` are then the most it lasts, and what it leaves
+    unused goes to the stages after it."""
+
+    mean_return: Reward
+    """The mean of the learner's own (unshaped) episode returns that ends the stage."""
+    episodes: Annotated[int, Field(strict=True, ge=1, le=100_000)] = 100
+    """How many of the stage's latest episodes the mean is over (of every learning agent:
+    an episode of four learning agents counts four)."""
+
+
 class TaskSpec(Spec):
     """One task of a stream: a scenario (with overrides), how long it lasts, and for a
     multi-agent scenario which agents the learner drives and who drives the rest."""
@@ -97,6 +111,8 @@ class TaskSpec(Spec):
     """The agents the learner drives (agent names or team names); None: every agent."""
     background: Annotated[str, Field(strict=True, min_length=1, max_length=500)] | None = None
     """The shipped policy that drives every agent not focal."""
+    until: UntilSpec | None = None
+    """In a curriculum, end the stage early on the learner's returns (``UntilSpec``)."""
 
     @model_validator(mode="after")
     def _background_with_focal(self):
@@ -232,7 +248,9 @@ class Stream:
         return segments[-1][2] if segments else None
 
 
-def load_stream(name: str | Path, padded: bool = False, every_slot: bool = False) -> Stream:
+def load_stream(
+    name: str | Path, padded: bool = False, every_slot: bool = False, curriculum: bool = False
+) -> Stream:
     """A shipped stream by name, or a stream file; ``ScenarioError`` (file, line, key
     path) if it is not a valid stream, its scenarios and background policies included, or
     if the file is no regular file (``flatland_ma.scenario.files``). ``padded``: the
@@ -240,7 +258,9 @@ def load_stream(name: str | Path, padded: bool = False, every_slot: bool = False
     ``baselines.ppo`` does), so agents of a task may observe differently; the padded
     spaces must then agree from task to task. ``every_slot``: one network sits in every
     agent's slot of every task, whichever agents learn in it (a curriculum of
-    ``baselines.ppo``), so the spaces and names checked are every agent's."""
+    ``baselines.ppo``), so the spaces and names checked are every agent's. ``curriculum``:
+    the stream is a curriculum of ``baselines.ppo``, whose stages may end early (``until``);
+    elsewhere a task with ``until`` is refused, since a life's tasks last their steps."""
     if isinstance(name, Stream):
         return name
     path = Path(name)
@@ -255,7 +275,24 @@ def load_stream(name: str | Path, padded: bool = False, every_slot: bool = False
         spec = StreamSpec.model_validate(raw)
     except ValidationError as err:
         raise ScenarioError(problems_from(err.errors(), StreamSpec, raw, marks, source)) from None
+    _check_until(spec, curriculum, lambda key, message: locate(marks, key, message, source))
     return _checked(path.stem, spec, marks, source, padded, every_slot)
+
+
+def _check_until(spec: StreamSpec, curriculum: bool, located) -> None:
+    """``ScenarioError`` at a task's ``until`` outside a curriculum, or on the last task of
+    a curriculum that goes through its tasks once (it runs to the run's end)."""
+    tasks = spec.tasks or ()
+    for t, task in enumerate(tasks):
+        last = t == len(tasks) - 1 and spec.cycles == 1
+        if task.until is not None and (not curriculum or last):
+            message = (
+                "the last task runs to the run's end: until has nothing to end early"
+                if curriculum
+                else "until ends a curriculum's stage early (baselines.ppo --curriculum); "
+                "the tasks of a life last their steps"
+            )
+            raise ScenarioError([located(("tasks", t, "until"), message)])
 
 
 def _checked(
