@@ -31,6 +31,8 @@ def reading(imitator: float, ppo: float | None, started: float | None = None) ->
         if ppo is not None and ppo < HALF:
             return "seen enough: PPO does not find what the imitator learns"
         return "seen enough"
+    if ppo is not None and ppo >= HALF:
+        return "learnt from the reward, though not imitated from the solver's labels"
     return "not imitated: one observation does not show the solver's way"
 
 

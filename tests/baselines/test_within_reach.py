@@ -44,4 +44,5 @@ def test_the_reading_follows_the_two_scores():
     assert reading(0.2, 0.1).startswith("not imitated")
     assert reading(0.2, 0.1, 0.7).startswith("PPO keeps the way")
     assert reading(0.2, 0.6, 0.7) == reading(0.2, 0.6)  # PPO from scratch does it already
+    assert reading(0.2, 0.6).startswith("learnt from the reward")
     assert reading(0.33, 0.0, 0.0).startswith("shown but not held")
