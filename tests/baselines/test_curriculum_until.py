@@ -21,6 +21,7 @@ torch = pytest.importorskip("torch")
 from baselines import ppo  # noqa: E402
 from baselines.ppo_resume import periodic_checkpoints  # noqa: E402
 from flatland_ma.policies.checkpoint import load_checkpoint  # noqa: E402
+from tests.interrupted import stopped_at  # noqa: E402
 
 STEPS = 50
 """Agent-steps per update: one world of one agent, 50 steps a rollout; the first
@@ -111,17 +112,7 @@ def test_a_gate_never_reached_lets_the_stage_last_its_steps(tmp_path):
 def test_a_resumed_curriculum_goes_on_in_the_stage_it_had_begun(tmp_path, monkeypatch):
     stream = _stream(tmp_path, ", until: {mean_return: -1000, episodes: 2}", first_steps=400)
     args = _args(tmp_path, stream, checkpoint_every=2)
-    iterate = ppo.Training.iterate
-
-    def stop_at(self, iteration, start):
-        if iteration == 7:  # the second stage began at update 4 (after 148 steps)
-            raise KeyboardInterrupt
-        iterate(self, iteration, start)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(ppo.Training, "iterate", stop_at)
-        with pytest.raises(KeyboardInterrupt):
-            ppo.main(args)
+    stopped_at(args, monkeypatch, 7)  # the second stage began at update 4 (148 steps)
     checkpoint = periodic_checkpoints(tmp_path / "seed_0")[-1]
     assert checkpoint.name.startswith("update_00006")
     at = load_checkpoint(checkpoint)[0]["agent_steps"]

@@ -20,13 +20,10 @@ from baselines import ppo  # noqa: E402
 from baselines.networks import Agent  # noqa: E402
 from baselines.ppo_resume import Resumed, periodic_checkpoints  # noqa: E402
 from flatland_ma.policies.checkpoint import load_checkpoint  # noqa: E402
+from tests.interrupted import stopped_at  # noqa: E402
 
 STEPS = 32
 """Agent-steps per update: one world of one agent, 32 steps a rollout."""
-
-
-class Interrupted(Exception):
-    pass
 
 
 def _args(folder: Path, **options) -> ppo.Args:
@@ -45,17 +42,7 @@ def _args(folder: Path, **options) -> ppo.Args:
 def _interrupted(folder: Path, monkeypatch, at: int = 6, **options) -> ppo.Args:
     """A run stopped as it began update ``at`` (its checkpoints of updates 2 and 4 on disk)."""
     args = _args(folder, **options)
-    iterate = ppo.Training.iterate
-
-    def stop_at(self, iteration, start):
-        if iteration == at:
-            raise Interrupted
-        iterate(self, iteration, start)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(ppo.Training, "iterate", stop_at)
-        with pytest.raises(Interrupted):
-            ppo.main(args)
+    stopped_at(args, monkeypatch, at)
     return args
 
 
