@@ -103,13 +103,13 @@ def stages_record(stages: Sequence[Stage], began: Sequence[int]) -> list[dict]:
     """The run's JSON of its curriculum: each stage's name and the agent-step it began at,
     its ``until`` if it has one, and, for each stage the run went past, whether it ended
     early (on its ``until``) rather than on its steps."""
-    record = []
+    ends, record = stage_ends(stages, began), []  # a stage's end rests on earlier starts only
     for k, (stage, step) in enumerate(zip(stages, began)):
         entry: dict = {"name": stage.name, "began": int(step)}
         if stage.until is not None:
             entry["until"] = stage.until
         if k + 1 < len(began):
-            entry["ended_early"] = bool(began[k + 1] < stage_ends(stages, began[: k + 1])[k])
+            entry["ended_early"] = bool(began[k + 1] < ends[k])
         record.append(entry)
     return record
 
