@@ -32,12 +32,14 @@ import os
 import time
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import torch
 import tyro
 from torch.utils._pytree import tree_map
 
+from baselines.benchmark.imitate_rounds import Kept, collect_sequences, train, train_sequences
 from baselines.benchmark.levels import held_out
 from baselines.benchmark.machine import calibrate, commit, cpu_seconds, versions
 from baselines.benchmark.play import scored_agents
@@ -74,6 +76,11 @@ class Args:
     task's standard configuration with its curriculum left out, and score it too (0: no
     PPO). The imitator's network takes that configuration's ``hidden``, ``network`` and
     ``use_depth`` either way, so that PPO can start from it."""
+    memory: Literal["none", "gru"] = "none"
+    """The network's recurrent core, as ``baselines.ppo``'s ``--memory``: "gru" plays and
+    learns slot by slot from sequences (``imitate_memory``); PPO from it has it too."""
+    sequence: int = 64
+    """With memory: steps of each piece of a sequence a minibatch replays."""
     seed: int = 0
     checkpoint: str = ""
     """Where the network goes (default runs/imitate/<scenario>/seed_<seed>.safetensors)."""
@@ -185,25 +192,6 @@ def collect(worlds: Worlds, network: Agent | None, steps: int, base: int) -> dic
     }
 
 
-def train(network: Agent, optimizer, views, labels: np.ndarray, args: Args, rng) -> float:
-    """``args.epochs`` passes of cross-entropy on the solver's actions; the mean loss of
-    the last."""
-    losses: list[float] = []
-    for _ in range(args.epochs):
-        losses = []
-        order = rng.permutation(len(labels))
-        for start in range(0, len(order), args.batch):
-            rows = order[start : start + args.batch]
-            batch = tree_map(lambda x, rows=rows: torch.from_numpy(x[rows]), views)
-            _, logprob, _, _ = network.act(batch, torch.from_numpy(labels[rows]))
-            loss = -logprob.mean()
-            optimizer.zero_grad()
-            loss.backward()
-            optimizer.step()
-            losses.append(loss.item())
-    return float(np.mean(losses))
-
-
 def standard_args(args: Args, log: Path = Path("-"), start: Path | None = None):
     """``baselines.ppo``'s arguments for the task's standard configuration, without its
     curriculum, logged at ``log``, from the checkpoint ``start``, for ``args.ppo_steps``."""
@@ -218,6 +206,7 @@ def standard_args(args: Args, log: Path = Path("-"), start: Path | None = None):
         resume=False,
         checkpoint_every=0,
         init_from="" if start is None else str(start),
+        memory=args.memory,
     )
 
 
@@ -236,34 +225,6 @@ def then_ppo(args: Args, imitator: Path) -> dict:
     }
 
 
-class Kept:
-    """Every step kept so far, in arrays made once for all the rounds' steps (one copy of
-    the data: a map of 64 x 64 pixels is 49 kB a step)."""
-
-    def __init__(self, capacity: int):
-        self.capacity, self.count = capacity, 0
-        self.views = None
-        self.labels = None
-
-    def add(self, views: list, labels: list) -> None:
-        if self.views is None:
-            self.views = tree_map(
-                lambda x: np.empty((self.capacity, *np.shape(x)), np.asarray(x).dtype), views[0]
-            )
-            self.labels = np.empty((self.capacity, len(labels[0])), np.int64)
-        start, end = self.count, self.count + len(labels)
-        for row, view in enumerate(views, start):
-            tree_map(lambda buffer, x, row=row: buffer.__setitem__(row, x), self.views, view)
-        assert self.labels is not None
-        self.labels[start:end] = labels
-        self.count = end
-
-    def arrays(self):
-        """The views and labels kept (views of the arrays, no copy)."""
-        assert self.labels is not None
-        return tree_map(lambda x: x[: self.count], self.views), self.labels[: self.count]
-
-
 def teach(args: Args, worlds: Worlds, network: Agent) -> list[dict]:
     """The rounds: the solver's, then ``args.rounds`` of the network's, each followed by
     training on every step kept so far; each round's figures."""
@@ -271,13 +232,21 @@ def teach(args: Args, worlds: Worlds, network: Agent) -> list[dict]:
     optimizer = torch.optim.Adam(network.parameters(), lr=args.learning_rate)
     # a round keeps at most a step of every agent of every world beyond ``steps``
     kept = Kept((args.rounds + 1) * (args.steps + len(worlds.envs) * len(worlds.agents)))
+    sequences: list = []  # with memory: every round's steps, slot by slot
     rounds = []
     for k in range(args.rounds + 1):
         base = TRAINING_SEED + args.seed * 100_000
-        got = collect(worlds, network if k else None, args.steps, base)
-        kept.add(got["views"], got["labels"])
-        del got["views"]
-        loss = train(network, optimizer, *kept.arrays(), args, rng)
+        driver = network if k else None
+        if network.core is not None:
+            got = collect_sequences(worlds, driver, args.steps, base, args.sequence)
+            sequences.append(got.pop("sequence"))
+            loss = train_sequences(network, optimizer, sequences, args, rng)
+            count = int(sum(seq.used.sum() for seq in sequences))
+        else:
+            got = collect(worlds, driver, args.steps, base)
+            kept.add(got.pop("views"), got["labels"])
+            loss = train(network, optimizer, *kept.arrays(), args, rng)
+            count = kept.count
         driven = np.mean(got["returns"]) if got["returns"] else None
         rounds.append(
             {
@@ -286,7 +255,7 @@ def teach(args: Args, worlds: Worlds, network: Agent) -> list[dict]:
                 "episodes": len(got["returns"]),
                 "return": None if driven is None else round(float(driven), 6),
                 "agreement": got["agreement"],
-                "steps_kept": kept.count,
+                "steps_kept": count,
                 "loss": loss,
             }
         )
@@ -305,6 +274,7 @@ def imitate(args: Args) -> dict:
         shape.hidden,
         input_channels(shape.use_depth),
         shape.network,
+        memory=args.memory,
     )
     try:
         rounds = teach(args, worlds, network)
@@ -328,7 +298,12 @@ def imitate(args: Args) -> dict:
         "scenario": args.scenario,
         "version": worlds.envs[0].spec.version,
         "args": asdict(args),
-        "network": {"hidden": shape.hidden, "network": shape.network, "use_depth": shape.use_depth},
+        "network": {
+            "hidden": shape.hidden,
+            "network": shape.network,
+            "use_depth": shape.use_depth,
+            "memory": args.memory,
+        },
         "rounds": rounds,
         "checkpoint": str(path),
         **held_out(args.scenario, args.seed, path),
