@@ -39,7 +39,13 @@ import torch
 import tyro
 from torch.utils._pytree import tree_map
 
-from baselines.benchmark.imitate_rounds import Kept, collect_sequences, train, train_sequences
+from baselines.benchmark.imitate_rounds import (
+    Kept,
+    collect_sequences,
+    step_worlds,
+    train,
+    train_sequences,
+)
 from baselines.benchmark.levels import held_out
 from baselines.benchmark.machine import calibrate, commit, cpu_seconds, versions
 from baselines.benchmark.play import scored_agents
@@ -176,14 +182,7 @@ def collect(worlds: Worlds, network: Agent | None, steps: int, base: int) -> dic
                 actions[w][a] = row if np.ndim(actions[w][a]) else int(row[0])
         views += step_views
         labels += step_labels
-        for w, env in enumerate(worlds.envs):
-            observations[w], rewards, *_ = env.step(actions[w])
-            for a, r in rewards.items():
-                totals[w][a] += float(r)
-            if not env.agents:
-                returns.append(float(np.mean([totals[w][a] for a in worlds.imitating])))
-                totals[w] = dict.fromkeys(worlds.agents, 0.0)
-                observations[w] = worlds.reset(w, base)
+        step_worlds(worlds, observations, actions, totals, returns, base)
     return {
         "views": views,
         "labels": labels,

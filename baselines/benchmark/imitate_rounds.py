@@ -64,11 +64,7 @@ def train(network: Agent, optimizer, views, labels: np.ndarray, args, rng) -> fl
             rows = order[start : start + args.batch]
             batch = tree_map(lambda x, rows=rows: torch.from_numpy(x[rows]), views)
             _, logprob, _, _ = network.act(batch, torch.from_numpy(labels[rows]))
-            loss = -logprob.mean()
-            optimizer.zero_grad()
-            loss.backward()
-            optimizer.step()
-            losses.append(loss.item())
+            losses.append(descend(optimizer, -logprob.mean()))
     return float(np.mean(losses))
 
 
@@ -125,15 +121,8 @@ def collect_sequences(worlds, network: Agent | None, steps: int, base: int, sequ
         for key, value in zip(rows, (views, labels, began.copy(), used), strict=True):
             rows[key].append(value)
         began = np.zeros(len(slots), bool)
-        for w, env in enumerate(worlds.envs):
-            observations[w], rewards, *_ = env.step(actions[w])
-            for a, r in rewards.items():
-                totals[w][a] += float(r)
-            if not env.agents:
-                returns.append(float(np.mean([totals[w][a] for a in worlds.imitating])))
-                totals[w] = dict.fromkeys(worlds.agents, 0.0)
-                observations[w] = worlds.reset(w, base)
-                began[[k for k, (v, _) in enumerate(slots) if v == w]] = True
+        for w in step_worlds(worlds, observations, actions, totals, returns, base):
+            began[[k for k, (v, _) in enumerate(slots) if v == w]] = True
     each_step = [tree_map(lambda *v: np.stack(v), *views) for views in rows["views"]]
     stacked = Sequence(
         tree_map(lambda *xs: np.stack(xs), *each_step),
@@ -213,11 +202,7 @@ def train_sequences(network: Agent, optimizer, kept: list[Sequence], args, rng) 
             initial = torch.stack([states[r][c // n, s] for r, c, s in group])
             h = network.replay(views, initial, starts)
             _, logprob, _, _ = network.decide(h[used], labels[used])
-            loss = -logprob.mean()
-            optimizer.zero_grad()
-            loss.backward()
-            optimizer.step()
-            losses.append(loss.item())
+            losses.append(descend(optimizer, -logprob.mean()))
     return float(np.mean(losses))
 
 
@@ -234,3 +219,28 @@ def _pieces(kept: list[Sequence], group: list[tuple[int, int, int]], n: int):
         *[tree_map(lambda x, c=c, s=s: x[c : c + n, s], kept[r].views) for r, c, s in group],
     )
     return views, side("labels"), side("starts"), side("used")
+
+
+def step_worlds(worlds, observations: list, actions: list, totals: list, returns: list, base: int):
+    """Step every world with its actions, adding each agent's rewards to ``totals``; a
+    world whose episode ended has its imitating agents' mean return added to ``returns``
+    and is reset (``observations`` and ``totals`` updated in place). The worlds reset."""
+    reset = []
+    for w, env in enumerate(worlds.envs):
+        observations[w], rewards, *_ = env.step(actions[w])
+        for a, r in rewards.items():
+            totals[w][a] += float(r)
+        if not env.agents:
+            returns.append(float(np.mean([totals[w][a] for a in worlds.imitating])))
+            totals[w] = dict.fromkeys(worlds.agents, 0.0)
+            observations[w] = worlds.reset(w, base)
+            reset.append(w)
+    return reset
+
+
+def descend(optimizer, loss: torch.Tensor) -> float:
+    """One gradient step on ``loss``; its value."""
+    optimizer.zero_grad()
+    loss.backward()
+    optimizer.step()
+    return loss.item()
