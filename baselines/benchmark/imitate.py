@@ -213,7 +213,7 @@ def then_ppo(args: Args, imitator: Path) -> dict:
     """PPO from the imitator (``standard_args``): its run's figures and held-out score."""
     from baselines import ppo
 
-    log = imitator.with_name(f"ppo_seed_{args.seed}.csv")
+    log = imitator.with_name(f"{imitator.stem}_then_ppo.csv")  # one PPO run an imitator
     run = standard_args(args, log, imitator)
     summary = ppo.main(run)
     return {

@@ -116,7 +116,7 @@ def test_ppo_goes_on_from_the_imitator_in_the_tasks_standard_configuration(tmp_p
     then = figures["then_ppo"]
     assert then["agent_steps"] >= 2048
     assert then["options"]["preset"] == "" and then["options"]["ent_coef"] == 0.03  # its preset
-    final = tmp_path / "ppo_seed_0.safetensors"
+    final = tmp_path / "fp_then_ppo.safetensors"
     description, network, _ = load_checkpoint(final)
     assert description["args"]["init_from"] == str(path)
     start = load_checkpoint(path)[2]["model"]

@@ -118,6 +118,6 @@ def test_a_recurrent_imitator_plays_and_ppo_goes_on_from_it_with_memory(tmp_path
     assert then["options"]["memory"] == "gru" and then["agent_steps"] >= 2048
     env = imitate.FlatlandParallelEnv("fruits_poisons")
     observations, _ = env.reset(seed=0)
-    policy = CheckpointPolicy.for_agent(tmp_path / "ppo_seed_0.safetensors", env, "agent_0")
+    policy = CheckpointPolicy.for_agent(tmp_path / "gru_then_ppo.safetensors", env, "agent_0")
     assert env.action_space("agent_0").contains(np.asarray(policy.act(observations["agent_0"])))
     env.close()
