@@ -3,14 +3,14 @@ solver? An imitation probe (DAgger).
 
 The scripted solvers read the world (where the goal is, the maze's plan, the other
 agents); the learner reads its own observations. This probe asks whether those are enough
-for ``baselines.ppo``'s own network, feed-forward, apart from reinforcement learning's
-exploration and credit: it is taught the solver's action at every step by cross-entropy,
-first on episodes the solver plays, then, round by round, on episodes the network itself
-plays with the solver's actions as the labels (Ross et al., "A Reduction of Imitation
-Learning and Structured Prediction to No-Regret Online Learning", 2011), every round's
-steps kept. Agents the benchmark does not score play at random, as there. The final
-network is saved as a checkpoint and scored on the benchmark's held-out episodes,
-normalised by the committed random and scripted scores.
+for ``baselines.ppo``'s own network, feed-forward (or recurrent, ``--memory gru``), apart
+from reinforcement learning's exploration and credit: it is taught the solver's action at
+every step by cross-entropy, first on episodes the solver plays, then, round by round, on
+episodes the network itself plays with the solver's actions as the labels (Ross et al.,
+"A Reduction of Imitation Learning and Structured Prediction to No-Regret Online
+Learning", 2011), every round's steps kept. Agents the benchmark does not score play at
+random, as there. The final network is saved as a checkpoint and scored on the
+benchmark's held-out episodes, normalised by the committed random and scripted scores.
 
 An imitator near the solver's score says the task is within the network's reach from
 what the agent sees, and a PPO run that stays below it fails at finding or crediting the
@@ -84,7 +84,7 @@ class Args:
     ``use_depth`` either way, so that PPO can start from it."""
     memory: Literal["none", "gru"] = "none"
     """The network's recurrent core, as ``baselines.ppo``'s ``--memory``: "gru" plays and
-    learns slot by slot from sequences (``imitate_memory``); PPO from it has it too."""
+    learns slot by slot from sequences (``imitate_rounds``); PPO from it has it too."""
     sequence: int = 64
     """With memory: steps of each piece of a sequence a minibatch replays."""
     seed: int = 0

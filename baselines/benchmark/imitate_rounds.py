@@ -22,7 +22,7 @@ import numpy as np
 import torch
 from torch.utils._pytree import tree_map
 
-from baselines.networks import Agent
+from baselines.networks import Agent, action_sizes
 
 
 class Kept:
@@ -143,6 +143,7 @@ def _solver_step(worlds, slots, observations, last: dict):
     whether it acted."""
     actions: list[dict] = [{} for _ in worlds.envs]
     views, labels, used = [], [], []
+    idle = np.zeros(len(action_sizes(worlds.action_space)), np.int64)  # one label a head
     for k, (w, a) in enumerate(slots):
         if a in worlds.envs[w].agents:
             expert = worlds.experts[w][a].act(observations[w][a])
@@ -151,7 +152,7 @@ def _solver_step(worlds, slots, observations, last: dict):
             labels.append(np.atleast_1d(np.asarray(expert, np.int64)))
             used.append(True)
         else:
-            labels.append(np.zeros_like(labels[0]) if labels else np.zeros(1, np.int64))
+            labels.append(idle)
             used.append(False)
         views.append(last[k])
     for w, env in enumerate(worlds.envs):
