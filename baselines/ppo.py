@@ -68,7 +68,7 @@ from baselines.networks import Agent
 from baselines.novelty import for_run, kept_with
 from baselines.ppo_args import Args
 from baselines.ppo_episodes import Episodes
-from baselines.ppo_learner import Overlapped, Rollout
+from baselines.ppo_learner import Overlapped, Rollout, critic_only
 from baselines.ppo_memory import MemoryRollout
 from baselines.ppo_presets import with_preset
 from baselines.ppo_resume import Resumed, progress, prune, start_from
@@ -150,6 +150,8 @@ def main(args: Args) -> dict:
         raise ValueError(
             "--overlap collects with feed-forward policies only (no --memory, --frames)"
         )
+    if args.critic_warmup < 0 or (args.critic_warmup and args.overlap):
+        raise ValueError("--critic-warmup N: N >= 0 updates, and not with --overlap")
     setup_cpu, load_start = cpu_seconds(), os.getloadavg()
     calibrated = calibration()  # before the run's CPU time starts: not counted in it
     seed_everything(args.seed)
@@ -310,7 +312,8 @@ class Training:
         if args.anneal_lr:
             self.optimizer.param_groups[0]["lr"] = lr
         if overlapped is None:
-            stats = self.rollout.learn(self.agent, self.optimizer, args)
+            with critic_only(self.agent, iteration <= args.critic_warmup):
+                stats = self.rollout.learn(self.agent, self.optimizer, args)
         else:
             stats = overlapped.learn(self.agent, self.optimizer, args)
         sps = episodes.global_step / (time.perf_counter() - start)

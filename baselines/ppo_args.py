@@ -69,6 +69,12 @@ class Args:
     one of the same spaces and network options, e.g. the imitator of
     ``baselines.benchmark.imitate``. Empty: random weights. Not with ``resume`` once the
     run has checkpoints of its own (they are what it goes on from)."""
+    critic_warmup: int = 0
+    """The first this many updates train the critic's head alone, the policy and the
+    layers it shares with the critic held as they are: for a run started from a policy
+    taught alone (``init_from`` an imitator), whose critic has learnt nothing, so that
+    the first advantages come from a critic fitted to that policy's returns. Not with
+    ``overlap``."""
     tensorboard: bool = True
     """Write TensorBoard events beside the CSV."""
     torch_threads: int = 1

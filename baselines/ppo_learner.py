@@ -24,6 +24,7 @@ from __future__ import annotations
 import copy
 import threading
 import time
+from contextlib import contextmanager
 
 import gymnasium
 import numba as nb
@@ -59,6 +60,24 @@ def gae(rewards, values, ends, stops, next_value, gamma: float, lam: float) -> t
     observation (NEXT_STEP autoreset), so the cut episode bootstraps from its value."""
     arrays = (x.numpy() for x in (rewards, values, ends, stops, next_value))
     return torch.from_numpy(_gae(*arrays, np.float32(gamma), np.float32(lam)))
+
+
+@contextmanager
+def critic_only(agent, on: bool = True):
+    """While ``on``, every parameter of ``agent`` but its critic head's is held: it takes
+    no gradient, so the optimiser leaves it (and the policy) as it is."""
+    if not on:
+        yield
+        return
+    critic = {id(p) for p in agent.critic.parameters()}
+    held = [p for p in agent.parameters() if p.requires_grad and id(p) not in critic]
+    for p in held:
+        p.requires_grad_(False)
+    try:
+        yield
+    finally:
+        for p in held:
+            p.requires_grad_(True)
 
 
 def update(

@@ -94,6 +94,9 @@ class Args:
     """Also write the figures to this JSON file."""
     record: bool = False
     """Keep the figures in results/imitation.json, under the scenario's name."""
+    teacher: str = ""
+    """A shipped policy to imitate instead of the scenario's solver (e.g. "wall_follower",
+    which reads only the agent's camera); not with ``record``, which keeps the solver's."""
 
 
 class Worlds:
@@ -108,7 +111,9 @@ class Worlds:
         spaces_ = {str(first.action_space(a)) for a in self.imitating}
         if len(spaces_) != 1:
             raise ValueError(f"{args.scenario}: the imitating agents act in {spaces_}")
-        names = solver_names(first)  # ValueError if the scenario names no solver
+        names = (  # ValueError if the scenario names no solver
+            {a: args.teacher for a in self.imitating} if args.teacher else solver_names(first)
+        )
         self.padding = Padding.of(first)
         self.space = self.padding.space if self.padding else first.observation_space(self.agents[0])
         self.action_space = first.action_space(self.imitating[0])
@@ -330,6 +335,8 @@ def record(figures: dict, path: Path = IMITATION) -> None:
 
 
 def main(args: Args) -> dict:
+    if args.record and args.teacher:
+        raise ValueError("--record keeps the scenario's solver's probe: leave out --teacher")
     load, cpu, wall, speed = os.getloadavg()[0], cpu_seconds(), time.perf_counter(), calibrate()
     figures = imitate(args)
     figures.update(

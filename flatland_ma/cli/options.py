@@ -184,7 +184,17 @@ CHECKPOINT_SUFFIXES = (".safetensors", ".pt")
 loading refuses with how to convert it)."""
 
 
-POLICIES = ("greedy", "planner", "carrier", "sniffer", "signaller", "follower", "random", "idle")
+POLICIES = (
+    "greedy",
+    "wall_follower",
+    "planner",
+    "carrier",
+    "sniffer",
+    "signaller",
+    "follower",
+    "random",
+    "idle",
+)
 """The shipped policies' names, as ``policies.named.SHIPPED`` has them (a test keeps the
 two equal): the help lists them without importing the policies."""
 

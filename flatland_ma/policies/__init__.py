@@ -1,6 +1,7 @@
-"""Policies that ship with the package: a scripted greedy forager and a sniffer that
-follows its nose (each from its own observation only), a search-based planner and a
-scripted carrier of objects (privileged: they read the world), and uniform random play."""
+"""Policies that ship with the package: a scripted greedy forager, a sniffer that
+follows its nose and a wall follower for mazes (each from its own observation only), a
+search-based planner and a scripted carrier of objects (privileged: they read the
+world), and uniform random play."""
 
 from flatland_ma.policies.carrier import CarrierPolicy
 from flatland_ma.policies.greedy import GreedyForager
@@ -10,6 +11,7 @@ from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy, evaluate
 from flatland_ma.policies.signals import Follower, Signaller
 from flatland_ma.policies.sniffer import Sniffer
+from flatland_ma.policies.wall_follower import WallFollower
 
 __all__ = [
     "CarrierPolicy",
@@ -22,6 +24,7 @@ __all__ = [
     "SHIPPED",
     "Signaller",
     "Sniffer",
+    "WallFollower",
     "evaluate",
     "make_policy",
 ]

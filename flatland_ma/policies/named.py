@@ -16,6 +16,7 @@ from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy
 from flatland_ma.policies.signals import Follower, Signaller
 from flatland_ma.policies.sniffer import Sniffer
+from flatland_ma.policies.wall_follower import WallFollower
 
 
 @runtime_checkable
@@ -31,6 +32,9 @@ class Policy(Protocol):
 
 SHIPPED: dict[str, Callable] = {
     "greedy": lambda env, agent, seed: GreedyForager(env.spec, env.possible_agents.index(agent)),
+    "wall_follower": lambda env, agent, seed: WallFollower(
+        env.spec, env.possible_agents.index(agent)
+    ),
     "planner": lambda env, agent, seed: PlannerPolicy(env, agent),
     "carrier": lambda env, agent, seed: CarrierPolicy(env, agent),
     "sniffer": lambda env, agent, seed: Sniffer(

@@ -130,3 +130,18 @@ def test_a_scenario_without_a_solver_is_refused(tmp_path):
     scenario.write_text("arena: {size: [200, 200]}\n")
     with pytest.raises(ValueError, match="reference"):
         imitate.Worlds(imitate.Args(scenario=str(scenario), worlds=1))
+
+
+def test_a_teacher_replaces_the_solver():
+    from flatland_ma.policies.wall_follower import WallFollower
+
+    args = imitate.Args(scenario="maze_goal", worlds=2, steps=64, teacher="wall_follower")
+    worlds = imitate.Worlds(args)
+    try:
+        assert all(isinstance(p, WallFollower) for w in worlds.experts for p in w.values())
+    finally:
+        worlds.close()
+    with pytest.raises(ValueError, match="no policy 'nobody'"):
+        imitate.Worlds(imitate.Args(scenario="maze_goal", worlds=1, teacher="nobody"))
+    with pytest.raises(ValueError, match="leave out --teacher"):
+        imitate.main(imitate.Args(scenario="maze_goal", teacher="wall_follower", record=True))

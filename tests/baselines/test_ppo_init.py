@@ -55,3 +55,33 @@ def test_a_checkpoint_that_does_not_fit_is_refused_naming_it(tmp_path):
     junk.write_bytes(b"not a checkpoint")
     with pytest.raises(ValueError, match="junk.safetensors"):
         ppo.Training(_args(tmp_path / "other", init_from=str(junk)))
+
+
+def test_critic_warmup_trains_the_critic_alone_then_everything(tmp_path):
+    """``--critic-warmup N``: the first N updates move the critic's head and nothing else
+    (the policy acts as the checkpoint did); the updates after move the rest too."""
+    ppo.main(_args(tmp_path / "first", seed=3))
+    source = str(tmp_path / "first" / "seed_0.safetensors")
+    weights = load_checkpoint(source)[2]["model"]
+
+    def after(updates: int, warmup: int) -> dict:
+        folder = tmp_path / f"warm_{updates}_{warmup}"
+        ppo.main(
+            _args(folder, init_from=source, critic_warmup=warmup, total_timesteps=32 * updates)
+        )
+        return load_checkpoint(folder / "seed_0.safetensors")[2]["model"]
+
+    def moved(model: dict) -> set[str]:
+        return {k for k in weights if not torch.equal(model[k], weights[k])}
+
+    critic = {k for k in weights if k.startswith("critic.")}
+    assert critic and moved(after(2, warmup=2)) == critic
+    assert moved(after(3, warmup=2)) > critic  # the third update trains the whole network
+    assert moved(after(2, warmup=0)) > critic
+
+
+def test_critic_warmup_is_refused_with_overlap(tmp_path):
+    with pytest.raises(ValueError, match="--critic-warmup"):
+        ppo.main(_args(tmp_path / "x", critic_warmup=1, overlap=True))
+    with pytest.raises(ValueError, match="--critic-warmup"):
+        ppo.main(_args(tmp_path / "y", critic_warmup=-1))
