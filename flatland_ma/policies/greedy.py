@@ -19,14 +19,10 @@ import math
 
 import numpy as np
 
-from flatland_ma.build.bodies import make_sensors
+from flatland_ma.policies.camera_view import CameraView, matches
 from flatland_ma.policies.motion import BaseMotion
-from flatland_ma.scenario.schema import CameraSpec, ScenarioSpec
+from flatland_ma.scenario.schema import ScenarioSpec
 
-COLOR_TOLERANCE = 0.04
-"""Largest distance in RGB space at which a recovered colour matches an item's."""
-MIN_INTENSITY = 0.02
-"""Rays fainter than this are too far for their colour to be read."""
 MEMORY_STEPS = 40
 """How many steps a point seen stays in memory once out of view."""
 PATIENCE = 80
@@ -47,33 +43,11 @@ class GreedyForager:
     def __init__(self, spec: ScenarioSpec, agent: int = 0):
         """Drives agent number ``agent`` of ``spec`` (its body, camera and actions)."""
         body = spec.agent_of(agent)
-        found = [
-            k
-            for k, s in enumerate(body.sensor_specs)
-            if isinstance(s, CameraSpec) and {"rgb", "depth"} <= set(s.channels)
-        ]
-        if not found:
-            raise ValueError(
-                "the greedy forager reads a camera's colour and depth: the agent has none"
-            )
-        k = found[0]  # it reads the first camera's image
-        camera_spec = body.sensor_specs[k]
-        assert isinstance(camera_spec, CameraSpec)
-        sensors = make_sensors(body, spec.channel, spec.n_agents)
-        camera = sensors[k]
-        self.key = camera.name if len(sensors) > 1 else None
-        """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
-        widths = {"rgb": 3, "depth": 1, "semantic": 6 if camera_spec.semantic == "onehot" else 1}
-        starts = dict(
-            zip(camera_spec.channels, np.cumsum([0] + [widths[c] for c in camera_spec.channels]))
-        )
-        self.columns = [starts["rgb"], starts["rgb"] + 1, starts["rgb"] + 2, starts["depth"]]
-        """Where red, green, blue and depth are among the camera's channels."""
-        self.angles = camera.angles
-        self.half_fov = camera.half_fov
+        self.view = view = CameraView(spec, agent, "the greedy forager")
+        self.angles = view.angles
+        self.half_fov = view.half_fov
         self.ux, self.uy = np.cos(self.angles), np.sin(self.angles)
-        self.range = camera_spec.range
-        self.linear = camera_spec.falloff == "linear"
+        self.range = view.range
         self.discrete = body.actions == "discrete"
         self.motion = BaseMotion(body, spec.channel)
         self.good = np.array([i.color for i in spec.items if i.reward > 0], np.float64)
@@ -83,7 +57,7 @@ class GreedyForager:
         self.radius = body.radius
         self.turn_step = math.radians(body.max_turn_rate) * spec.physics.dt
         self.step_length = body.max_speed * spec.physics.dt
-        ray_spacing = math.radians(camera_spec.fov) / camera_spec.rays
+        ray_spacing = math.radians(view.spec.fov) / view.spec.rays
         self.aim_tolerance = self.turn_step / 2 + ray_spacing
         """Facing a point this closely is enough: ray sampling can't place it better."""
         self.full_turn = math.ceil(2 * math.pi / self.turn_step)
@@ -115,10 +89,7 @@ class GreedyForager:
     def act(self, observation):
         """The action for one observation: the camera's image (rays, channels), or a
         ``Dict`` holding it."""
-        if self.key is not None:
-            observation = observation[self.key]
-        image = np.asarray(observation, np.float64)[:, self.columns]
-        forward, turn = self._decide(image)
+        forward, turn = self._decide(self.view.image(observation))
         self._last = (forward, turn)
         self._turns = self._turns[-DITHER_TURNS:] + [np.sign(turn)]
         return self.motion.action(forward, turn)
@@ -129,12 +100,10 @@ class GreedyForager:
         self._move_memory()
         depth = obs[:, 3]
         distance = depth * self.range
-        intensity = (1.0 - depth) if self.linear else np.ones_like(depth)
-        readable = intensity > MIN_INTENSITY
-        colour = obs[:, :3] / np.maximum(intensity, MIN_INTENSITY)[:, None]
-        good = readable & _matches(colour, self.good)
-        bad = readable & _matches(colour, self.bad)
-        solid = (depth < 1.0) & ~good & ~bad & ~_matches(colour, self.neutral)
+        colour, readable = self.view.colours(obs)
+        good = readable & matches(colour, self.good)
+        bad = readable & matches(colour, self.bad)
+        solid = (depth < 1.0) & ~good & ~bad & ~matches(colour, self.neutral)
         px, py = distance * self.ux, distance * self.uy
         seen = [
             _points(px[bad], py[bad], self.radius + self.item_radius + 1.0),
@@ -352,10 +321,3 @@ def _item_centres(mask: np.ndarray, px: np.ndarray, py: np.ndarray, radius: floa
         scale = (d + radius) / d if d > 1e-9 else 1.0
         centres.append((px[k] * scale, py[k] * scale))
     return np.array(centres)
-
-
-def _matches(colour: np.ndarray, references: np.ndarray) -> np.ndarray:
-    if len(references) == 0:
-        return np.zeros(len(colour), bool)
-    gap = np.linalg.norm(colour[:, None, :] - references[None, :, :], axis=2)
-    return gap.min(axis=1) < COLOR_TOLERANCE

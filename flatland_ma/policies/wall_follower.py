@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
-from flatland_ma.build.bodies import make_sensors
+from flatland_ma.policies.camera_view import CameraView, matches
 from flatland_ma.policies.motion import BaseMotion
-from flatland_ma.scenario.schema import CameraSpec, ScenarioSpec
+from flatland_ma.scenario.schema import ScenarioSpec
 
 FRONT_HALF_ANGLE = math.radians(11.0)
 """Rays this close to straight ahead measure what is in front."""
@@ -38,10 +38,6 @@ TOO_CLOSE = 16.0
 OPENS = 45.0
 """The view's left edge free this far, and the inner left free ``INNER_FREE``: turn left."""
 INNER_FREE = 30.0
-COLOR_TOLERANCE = 0.04
-"""Largest distance in RGB space at which a recovered colour matches a paying item's."""
-MIN_INTENSITY = 0.02
-"""Rays fainter than this are too far for their colour to be read."""
 AIM = math.radians(7.0)
 """An item seen further than this off straight ahead is turned to before walking."""
 
@@ -53,39 +49,18 @@ class WallFollower:
 
     def __init__(self, spec: ScenarioSpec, agent: int = 0):
         body = spec.agent_of(agent)
-        found = [
-            k
-            for k, s in enumerate(body.sensor_specs)
-            if isinstance(s, CameraSpec) and {"rgb", "depth"} <= set(s.channels)
-        ]
-        if not found:
-            raise ValueError(
-                "the wall follower reads a camera's colour and depth: the agent has none"
-            )
-        k = found[0]
-        camera_spec = body.sensor_specs[k]
-        assert isinstance(camera_spec, CameraSpec)
-        sensors = make_sensors(body, spec.channel, spec.n_agents)
-        camera = sensors[k]
-        if camera.half_fov < MIN_HALF_FOV:
+        self.view = view = CameraView(spec, agent, "the wall follower")
+        if view.half_fov < MIN_HALF_FOV:
             raise ValueError(
                 "the wall follower needs a camera that sees at least 50 degrees either side, "
-                f"not {math.degrees(camera.half_fov):.0f}"
+                f"not {math.degrees(view.half_fov):.0f}"
             )
-        self.key = camera.name if len(sensors) > 1 else None
-        """The camera's entry in a ``Dict`` observation (None: the observation is it)."""
-        widths = {"rgb": 3, "depth": 1, "semantic": 6 if camera_spec.semantic == "onehot" else 1}
-        starts = dict(
-            zip(camera_spec.channels, np.cumsum([0] + [widths[c] for c in camera_spec.channels]))
-        )
-        self.columns = [starts["rgb"], starts["rgb"] + 1, starts["rgb"] + 2, starts["depth"]]
-        angles = np.asarray(camera.angles, np.float64)  # positive: to the left
+        angles = np.asarray(view.angles, np.float64)  # positive: to the left
         self.angles = angles
         self.front = np.abs(angles) <= max(FRONT_HALF_ANGLE, np.abs(angles).min())
         self.edge = angles >= angles.max() - EDGE_SPAN
         self.inner = (angles >= INNER_LEFT[0]) & (angles <= INNER_LEFT[1])
-        self.range = camera_spec.range
-        self.linear = camera_spec.falloff == "linear"
+        self.range = view.range
         self.good = np.array([i.color for i in spec.items if i.reward > 0], np.float64)
         self.motion = BaseMotion(body, spec.channel)
 
@@ -95,15 +70,12 @@ class WallFollower:
     def act(self, observation):
         """The action for one observation: the camera's image (rays, channels), or a
         ``Dict`` holding it."""
-        if self.key is not None:
-            observation = observation[self.key]
-        image = np.asarray(observation, np.float64)[:, self.columns]
-        return self.motion.action(*self._decide(image))
+        return self.motion.action(*self._decide(self.view.image(observation)))
 
     def _decide(self, image: np.ndarray) -> tuple[float, float]:
         """(forward, turn): turn > 0 is to the left."""
         depth = image[:, 3]
-        seen = self._paying(image[:, :3], depth)
+        seen = self._paying(image)
         if seen.any():
             bearing = float(self.angles[seen].mean())
             return (1.0, 0.0) if abs(bearing) <= AIM else (0.0, math.copysign(1.0, bearing))
@@ -114,11 +86,7 @@ class WallFollower:
             return 0.0, 1.0
         return 1.0, 0.0
 
-    def _paying(self, rgb: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    def _paying(self, image: np.ndarray) -> np.ndarray:
         """Which rays see an item that pays, by its colour with the falloff divided out."""
-        if len(self.good) == 0:
-            return np.zeros(len(depth), bool)
-        intensity = (1.0 - depth) if self.linear else np.ones_like(depth)
-        colour = rgb / np.maximum(intensity, MIN_INTENSITY)[:, None]
-        gap = np.linalg.norm(colour[:, None, :] - self.good[None, :, :], axis=2)
-        return (intensity > MIN_INTENSITY) & (gap.min(axis=1) < COLOR_TOLERANCE)
+        colour, readable = self.view.colours(image)
+        return readable & matches(colour, self.good)
