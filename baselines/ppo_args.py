@@ -40,6 +40,10 @@ class Args:
     """Minibatches per epoch (CleanRL's default)."""
     update_epochs: int = 4
     """Epochs over each rollout (CleanRL's default)."""
+    norm_adv: bool = True
+    """Normalise the advantages over each minibatch (CleanRL's default). Without it the
+    policy's step is in proportion to the advantages themselves: where the reward is rare,
+    most minibatches carry only the critic's errors, which normalising makes full-sized."""
     clip_coef: float = 0.2
     """PPO clipping coefficient, also used for the value (CleanRL's default)."""
     ent_coef: float = 0.01

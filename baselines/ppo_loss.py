@@ -18,16 +18,18 @@ def ppo_loss(
     advantage: torch.Tensor,
     returns: torch.Tensor,
     value: torch.Tensor,
+    normalise: bool = True,
 ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
     """The loss of the minibatch's entries and its parts (the names of
     ``baselines.ppo.update``'s statistics):
         L = -min(ratio A, clip(ratio, 1 - eps, 1 + eps) A)
             + vf_coef * 1/2 max((V - R)^2, (V_old + clip(V - V_old, -eps, eps) - R)^2)
             - ent_coef * H,   ratio = pi(a|s) / pi_old(a|s)
-    with the advantages A normalised over the minibatch."""
+    with the advantages A normalised over the minibatch (unless not ``normalise``)."""
     log_ratio = new_logprob - logprob
     ratio = log_ratio.exp()
-    advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
+    if normalise:
+        advantage = (advantage - advantage.mean()) / (advantage.std() + 1e-8)
     policy_loss = torch.max(
         -advantage * ratio, -advantage * ratio.clamp(1 - clip_coef, 1 + clip_coef)
     ).mean()
@@ -55,7 +57,9 @@ def descend(
     earlier tasks' parameters) and the minibatch's own ``extra`` loss if given (the
     channel's biases); gradients clipped to ``args.max_grad_norm``. Returns the loss's
     parts."""
-    loss, parts = ppo_loss(args.clip_coef, args.vf_coef, args.ent_coef, *decided, *old)
+    loss, parts = ppo_loss(
+        args.clip_coef, args.vf_coef, args.ent_coef, *decided, *old, normalise=args.norm_adv
+    )
     if penalty is not None:
         loss = loss + penalty()
     if extra is not None:
