@@ -46,13 +46,16 @@ def check_batch_of_actions(actions, num_slots: int, single: gymnasium.Space, lay
     """Raise ``TypeError`` unless ``actions`` is a batch (an array or a sequence, one action
     in ``single`` per slot), ``ValueError`` if it has the wrong length; ``layout`` says
     which slot is which (e.g. "2 worlds x 3 agents"). Nothing is changed."""
-    takes = (
-        f"a batch's step takes one action per slot ({num_slots}: {layout}), as an array or "
-        f"a sequence of length {num_slots} whose entries lie in {single}"
-    )
+
+    def takes() -> str:  # worded only for an error: the space's text costs a step's microseconds
+        return (
+            f"a batch's step takes one action per slot ({num_slots}: {layout}), as an array "
+            f"or a sequence of length {num_slots} whose entries lie in {single}"
+        )
+
     if isinstance(actions, Mapping):
         raise TypeError(
-            f"{takes}; got a {type(actions).__name__} (a PettingZoo-style dict of agent name "
+            f"{takes()}; got a {type(actions).__name__} (a PettingZoo-style dict of agent name "
             "-> action is what FlatlandParallelEnv.step takes; here slot "
             "w * agents_per_world + j is world w's agent j)"
         )
@@ -61,11 +64,11 @@ def check_batch_of_actions(actions, num_slots: int, single: gymnasium.Space, lay
         or isinstance(actions, str | bytes)
         or not (hasattr(actions, "__len__") and hasattr(actions, "__getitem__"))
     ):
-        raise TypeError(f"{takes}; got {_shown(actions)}")
+        raise TypeError(f"{takes()}; got {_shown(actions)}")
     try:
         n = len(actions)
     except TypeError:  # a 0-d array
-        raise TypeError(f"{takes}; got {_shown(actions)}") from None
+        raise TypeError(f"{takes()}; got {_shown(actions)}") from None
     if n != num_slots:
         raise ValueError(f"expected one action per slot ({num_slots}: {layout}), got {n}")
 
