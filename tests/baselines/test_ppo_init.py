@@ -4,6 +4,7 @@ checkpoint that does not fit is refused naming the file."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 from pathlib import Path
 
@@ -85,3 +86,9 @@ def test_critic_warmup_is_refused_with_overlap(tmp_path):
         ppo.main(_args(tmp_path / "x", critic_warmup=1, overlap=True))
     with pytest.raises(ValueError, match="--critic-warmup"):
         ppo.main(_args(tmp_path / "y", critic_warmup=-1))
+
+
+def test_no_norm_adv_is_an_option_of_the_run(tmp_path):
+    ppo.main(_args(tmp_path, norm_adv=False))
+    summary = json.loads((tmp_path / "seed_0.json").read_text())
+    assert summary["args"]["norm_adv"] is False

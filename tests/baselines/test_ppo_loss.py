@@ -1,5 +1,5 @@
 """The PPO loss's advantages: normalised over the minibatch by default (CleanRL's), taken as
-they are with ``--no-norm-adv``."""
+they are with ``--no-norm-adv`` (the run records it: ``test_ppo_init.py``)."""
 
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def test_raw_advantages_give_steps_in_proportion_to_them():
     # L = -mean(A * ratio) at ratio 1, dL/dlogprob_i = -A_i / n
     assert loss == pytest.approx(-float(advantage.mean()))
     assert torch.allclose(grad, -advantage / 4)
-    small_loss, small_grad = _policy_loss(advantage / 1000, normalise=False)
+    _, small_grad = _policy_loss(advantage / 1000, normalise=False)
     assert torch.allclose(small_grad, grad / 1000)
     # the same small advantages, normalised, step as far as the large ones
     assert torch.allclose(
@@ -57,24 +57,3 @@ def test_raw_advantages_give_steps_in_proportion_to_them():
         _policy_loss(advantage, normalise=True)[1],
         atol=1e-5,
     )
-
-
-def test_no_norm_adv_is_an_option_of_the_run(tmp_path):
-    from baselines import ppo
-
-    args = ppo.Args(
-        scenario="fruits_poisons",
-        num_envs=1,
-        num_steps=32,
-        total_timesteps=64,
-        checkpoint_every=0,
-        tensorboard=False,
-        hidden=32,
-        norm_adv=False,
-        csv=str(tmp_path / "seed_0.csv"),
-    )
-    ppo.main(args)
-    import json
-
-    summary = json.loads((tmp_path / "seed_0.json").read_text())
-    assert summary["args"]["norm_adv"] is False
