@@ -192,6 +192,7 @@ POLICIES = (
     "sniffer",
     "signaller",
     "follower",
+    "heeder",
     "random",
     "idle",
 )

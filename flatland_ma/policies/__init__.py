@@ -9,7 +9,7 @@ from flatland_ma.policies.idle import IdlePolicy
 from flatland_ma.policies.named import SHIPPED, Policy, make_policy
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy, evaluate
-from flatland_ma.policies.signals import Follower, Signaller
+from flatland_ma.policies.signals import Follower, Heeder, Signaller
 from flatland_ma.policies.sniffer import Sniffer
 from flatland_ma.policies.wall_follower import WallFollower
 
@@ -17,6 +17,7 @@ __all__ = [
     "CarrierPolicy",
     "Follower",
     "GreedyForager",
+    "Heeder",
     "IdlePolicy",
     "PlannerPolicy",
     "Policy",

@@ -14,7 +14,7 @@ from flatland_ma.policies.greedy import GreedyForager
 from flatland_ma.policies.idle import IdlePolicy
 from flatland_ma.policies.planner import PlannerPolicy
 from flatland_ma.policies.rollout import RandomPolicy
-from flatland_ma.policies.signals import Follower, Signaller
+from flatland_ma.policies.signals import Follower, Heeder, Signaller
 from flatland_ma.policies.sniffer import Sniffer
 from flatland_ma.policies.wall_follower import WallFollower
 
@@ -42,6 +42,7 @@ SHIPPED: dict[str, Callable] = {
     ),
     "signaller": lambda env, agent, seed: Signaller(env, agent),
     "follower": lambda env, agent, seed: Follower(env, agent, seed=seed),
+    "heeder": lambda env, agent, seed: Heeder(env, agent, seed=seed),
     "random": lambda env, agent, seed: RandomPolicy(env.action_space(agent), seed=seed),
     "idle": lambda env, agent, seed: IdlePolicy(env, agent),
 }

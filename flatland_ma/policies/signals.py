@@ -8,6 +8,9 @@ nearest item worth having, and turns on the spot (without a channel it only turn
 heads for the room the first agent it hears (other than itself) names, or with nobody to
 hear (after listening for ``WAIT`` steps) for a room drawn at random; inside a room it
 sees what lies there, takes the best item if there is one, and else tries the next room.
+``Heeder`` is a ``Follower`` that heeds every word until it has tried a room, not only the
+first: it heads for the room named most often so far, so that each of a guide's words
+counts (a partner for a guide learning to tell, whose first word alone would pay).
 """
 
 from __future__ import annotations
@@ -91,6 +94,7 @@ class Follower(PlannerPolicy):
         return super().act(observation)
 
     def _told(self, observation) -> int | None:
+        """The room the first other speaker heard names, or None."""
         if not isinstance(observation, dict) or MESSAGES not in observation:
             return None
         vocabulary = self.env.spec.channel.vocabulary
@@ -119,3 +123,22 @@ class Follower(PlannerPolicy):
         self._target = ("room", self.room)
         self._target_point = ((room[0] + room[2]) / 2, (room[1] + room[3]) / 2)
         return grid.cells_in(room)
+
+
+class Heeder(Follower):
+    """A ``Follower`` that heeds every word until it has tried a room: it heads for the
+    room named most often so far this episode (on a tie, the latest named), where the
+    ``Follower`` keeps to the first word. Each word a guide says then counts, and a guide
+    whose words say nothing sends it to a room as good as a guess."""
+
+    def reset(self) -> None:
+        super().reset()
+        self.tally = np.zeros(len(self.rooms), np.int64)
+
+    def act(self, observation=None):
+        told = self._told(observation)
+        if told is not None and not self.tried:
+            self.tally[told] += 1
+            best = np.flatnonzero(self.tally == self.tally.max())
+            self.room = told if told in best else int(best[0])
+        return super().act(observation)

@@ -29,8 +29,8 @@ def test_the_guides_words_and_a_listening_seeker_beside_them():
         policies = {guide: make(env, guide), seeker: Follower(env, seeker, seed=0)}
         figures[name] = listening.play(env, policies, guide, seeds)
     env.close()
-    assert figures["truthful"][1] == 1.0 and figures["liar"][1] == 0.0
-    assert 0.0 < figures["random"][1] < 1.0
+    assert figures["truthful"][1:] == (1.0, 1.0) and figures["liar"][1:] == (0.0, 0.0)
+    assert 0.0 < figures["random"][1] < 1.0 and 0.3 < figures["random"][2] < 0.7
     # the scripted follower goes where it is told: the liar sends it to the wrong room
     assert figures["truthful"][0] > figures["random"][0] > figures["liar"][0]
 
@@ -48,8 +48,16 @@ def test_a_checkpoints_pair_is_checked_beside_every_guide(tmp_path):
     )
     ppo.main(args)
     figures = listening.check(str(tmp_path / "seed_0.safetensors"), episodes=2)
-    assert list(figures) == ["its own guide", "Signaller", "random words", "liar"]
-    assert figures["Signaller"][1] == 1.0 and figures["liar"][1] == 0.0
+    assert list(figures) == [
+        "its own guide",
+        "Signaller",
+        "random words",
+        "liar",
+        "its own guide, the Heeder seeking",
+    ]
+    assert figures["Signaller"][1:] == (1.0, 1.0) and figures["liar"][1:] == (0.0, 0.0)
+    # the same guide, beside the checkpoint's seeker and beside the Heeder, says the same
+    assert figures["its own guide"][1] == figures["its own guide, the Heeder seeking"][1]
 
 
 def test_a_task_without_a_guide_and_a_seeker_is_refused():

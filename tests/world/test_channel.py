@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import data_equivalence
 import flatland_ma
 from flatland_ma.agents.actuators import InvalidActionError
 from flatland_ma.envs.vector import BatchedParallelEnv
-from flatland_ma.policies import Follower, Signaller, evaluate
+from flatland_ma.policies import Follower, Heeder, Signaller, evaluate
 from flatland_ma.scenario.errors import ScenarioError
 
 CHANNEL = {"tokens": 2, "vocabulary": 3, "range": 100.0}
@@ -190,3 +190,64 @@ def test_signalling_scores_better_with_the_channel_than_without(scenario):
     assert all(info["seeker_0"]["goal"] == 1 for info in told.infos)
     assert told.mean > guessing.mean + 0.3
     assert min(told.returns) > min(guessing.returns) + 0.5
+
+
+class _LateTruth(Signaller):
+    """Names the wrong room for its first ``lies`` steps, then the goal's."""
+
+    def __init__(self, env, agent, lies=4):
+        super().__init__(env, agent)
+        self.first_lies = self.lies = lies
+
+    def reset(self):
+        self.lies = self.first_lies
+
+    def act(self, observation=None):
+        action = np.array(super().act(observation))
+        if self.lies > 0:
+            self.lies -= 1
+            action[-1] = 1 - action[-1]  # two rooms: the other word
+        return action
+
+
+def test_the_heeder_goes_where_most_words_send_it_and_the_follower_the_first():
+    """Beside a guide that first names the wrong room and then the right one, the heeder
+    turns once the right room has been named most often and finds the goal in every
+    episode; the follower keeps to the first word and mostly runs out of time on the way
+    to the second room."""
+
+    def run(seeker):
+        env = flatland_ma.parallel_env("signal_rooms")
+
+        def make(agent):
+            return _LateTruth(env, agent) if agent == "guide_0" else seeker(env, agent, seed=1)
+
+        return evaluate(env, make, episodes=6)
+
+    heeded, followed = run(Heeder), run(Follower)
+    assert all(info["seeker_0"]["goal"] == 1 for info in heeded.infos)
+    assert sum(info["seeker_0"]["goal"] for info in followed.infos) <= 3
+    assert heeded.mean > followed.mean + 3.0
+
+
+def test_the_heeder_counts_every_word_until_it_tries_a_room():
+    """The heeder's room is the one named most often so far, a tie going to the latest
+    word; once it has tried a room, words no longer move it."""
+    env = flatland_ma.parallel_env("signal_rooms")
+    env.reset(seed=3)
+    heeder = Heeder(env, "seeker_0", seed=0)
+    heeder.reset()
+
+    def heard(word):
+        messages = np.zeros((2, 3), np.float32)
+        messages[0, 0], messages[0, 1 + word] = 1.0, 1.0
+        return {"messages": messages}
+
+    rooms = []
+    for word in (0, 0, 1, 1, 1, 0):
+        heeder.act(heard(word))
+        rooms.append(heeder.room)
+    assert rooms == [0, 0, 0, 1, 1, 0]  # the latest word alone would give 0, 0, 1, 1, 1, 0
+    heeder.tried.add(0)
+    heeder.act(heard(1))
+    assert list(heeder.tally) == [3, 3]
