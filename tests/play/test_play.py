@@ -180,7 +180,7 @@ def test_an_agent_whose_episode_ends_hands_the_keys_on(monkeypatch):
 
 def test_an_unknown_policy_for_the_others_is_refused():
     with pytest.raises(
-        ValueError, match="sniffer, signaller, follower, random, idle, or a checkpoint"
+        ValueError, match="sniffer, signaller, follower, heeder, random, idle, or a checkpoint"
     ):
         Session(flatland_ma.parallel_env("fruits_poisons_multi"), "x", others="smart")
 
