@@ -139,6 +139,6 @@ class Heeder(Follower):
         told = self._told(observation)
         if told is not None and not self.tried:
             self.tally[told] += 1
-            best = np.flatnonzero(self.tally == self.tally.max())
-            self.room = told if told in best else int(best[0])
+            if self.tally[told] == self.tally.max():  # else the room named most stays
+                self.room = told
         return super().act(observation)
