@@ -9,22 +9,21 @@ channel what it hears; it acts in ``Discrete`` moves, or ``MultiDiscrete`` moves
 ``plate_relay`` or ``signal_rooms``) share it through one padded observation that names
 each slot's role (``pad=True``, ``flatland_ma.envs.padding``); their actions must agree.
 The update is CleanRL's PPO (clipped objective, GAE, value clipping, advantage
-normalisation, annealed learning rate), with its default settings unless stated.
+normalisation, annealed learning rate), its default settings unless stated.
 
 Slots whose action the env does not use on a step are left out of the update: an agent
 that finished while its world plays on (``infos["active"]`` False), and every slot of a
-world being reset (the batched env resets in Gymnasium's NEXT_STEP mode). A truncated
-episode bootstraps from the value of its last observation, which that mode returns.
+world being reset (NEXT_STEP mode: a truncated episode bootstraps from its last observation).
 
 Options beyond CleanRL's, each off by default (``baselines.ppo_args.Args``): ``--preset``
 (``baselines.ppo_presets``); ``--team-reward``, every agent learns from its world's summed
 reward; ``--shaping W``, a potential-based term for delivery and goal tasks
 (``baselines.shaping``); ``--novelty W``, an exploration bonus (``baselines.novelty``);
 ``--listening W``, ``--signalling W``, biases towards using the channel
-(``baselines.channel_bias``); ``--curriculum FILE``, a stream's tasks in turn
-(``baselines.curriculum``); ``--memory gru``, ``--frames K``, memory
-(``baselines.ppo_memory``); ``--resume`` (``baselines.ppo_resume``). The log always keeps
-each agent's own, unshaped return.
+(``baselines.channel_bias``); ``--anchor W``, a pull towards the ``--init-from`` policy
+(``baselines.anchor``); ``--curriculum FILE`` (``baselines.curriculum``); ``--memory gru``,
+``--frames K`` (``baselines.ppo_memory``); ``--resume`` (``baselines.ppo_resume``). The
+log always keeps each agent's own, unshaped return.
 
 Written beside the CSV log (``runs/ppo/<scenario>/seed_<seed>.csv``, one row per agent and
 episode): the final checkpoint ``seed_<seed>.safetensors`` (the network's weights, its
@@ -46,6 +45,7 @@ import numpy as np
 import torch
 import tyro
 
+from baselines.anchor import anchor
 from baselines.buffers import keep_freed_memory
 from baselines.channel_bias import channel_bias
 from baselines.common import (
@@ -221,12 +221,13 @@ class Training:
         self.space = env.single_observation_space
         """The first stage's observations, which the checkpoints describe."""
         self.novelty = novelty = for_run(args, env, self.observation, seed, resumed)
+        bias = channel_bias(args, env, agent) or anchor(args, agent, self.iterations, resumed)
         for rollout in self.rollouts:
             rollout.novelty = novelty
             rollout.learns = self.learns
             rollout.background = np.random.default_rng([seed, 1])
             rollout.partners = partner_policies(env, stage, seed)
-            rollout.bias = channel_bias(args, env, agent)
+            rollout.bias = bias
         self.learn_from = learning_reward(args, env)
         self._bookkeeping(counters)
 

@@ -131,6 +131,13 @@ class Args:
     signalling: float = 0.0
     """Weight of a bias towards signalling (``baselines.channel_bias``): words that differ
     between situations and are sure in each; 0: none."""
+    anchor: float = 0.0
+    """Weight of a pull towards the policy the run starts from (``baselines.anchor``): the
+    KL divergence from the ``init_from`` policy's action distribution to the network's, on
+    each minibatch, added to the loss (kickstarting); 0: none."""
+    anchor_fade: float = 0.0
+    """The fraction of the run's updates over which the anchor's weight falls linearly to
+    0; 0: held throughout."""
     memory: Literal["none", "gru"] = "none"
     """The policy's recurrent core: "gru", a one-layer GRU of ``memory_size`` units after
     the fully connected layer, its state carried through each episode and trained on whole
