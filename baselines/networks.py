@@ -31,6 +31,7 @@ from __future__ import annotations
 import torch
 from gymnasium import spaces
 
+from baselines.common import input_channels
 from flatland_ma.policies.networks import (
     BOX,
     MAP,
@@ -93,6 +94,7 @@ class Agent(PPONetwork):
         memory: str = "none",
         memory_size: int = 128,
         frames: int = 1,
+        roles: int = 0,
     ):
         super().__init__(
             observation_entries(observation_space),
@@ -104,6 +106,7 @@ class Agent(PPONetwork):
             memory,
             memory_size,
             frames,
+            roles,
         )
 
     def value(self, observation, state: torch.Tensor | None = None) -> torch.Tensor:
@@ -151,3 +154,29 @@ class Agent(PPONetwork):
             assert state is not None, "a centralised critic reads the state"
             return action, logprob, entropy, self.critic(state).squeeze(-1)
         return action, logprob, entropy, self.critic(h).squeeze(-1)
+
+
+def network_options(args, env) -> dict:
+    """``Agent``'s options besides the spaces for a ``baselines.ppo`` run's ``args`` on
+    the batched ``env``; ``ValueError`` for ``--role-networks`` where the agents observe
+    alike (one role)."""
+    roles = 0
+    if args.role_networks:
+        roles = env.padding.roles if env.padding is not None else 1
+        if roles < 2:
+            raise ValueError(
+                f"--role-networks: every agent of {args.scenario} observes alike (one role), "
+                "so there is one network already"
+            )
+    return {
+        "hidden": args.hidden,
+        "channels": input_channels(args.use_depth),
+        "network": args.network,
+        "state_size": env.single_state_space.shape[0] + env.agents_per_world
+        if args.critic == "state"
+        else 0,
+        "memory": args.memory,
+        "memory_size": args.memory_size,
+        "frames": args.frames,
+        "roles": roles,
+    }

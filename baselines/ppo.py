@@ -53,7 +53,6 @@ from baselines.common import (
     calibration,
     cpu_seconds,
     default_csv,
-    input_channels,
     seed_everything,
     threads_used,
 )
@@ -64,7 +63,7 @@ from baselines.curriculum import (
     stage_ends,
     stages_record,
 )
-from baselines.networks import Agent
+from baselines.networks import Agent, network_options
 from baselines.novelty import for_run, kept_with
 from baselines.ppo_args import Args
 from baselines.ppo_episodes import Episodes
@@ -191,17 +190,7 @@ class Training:
         # the network and the optimiser (its first import of torch's compiler takes a second).
         self.observation, infos = env.reset(seed=seed * args.num_envs)
         self.agent = agent = Agent(
-            env.single_observation_space,
-            env.single_action_space,
-            args.hidden,
-            input_channels(args.use_depth),
-            args.network,
-            state_size=env.single_state_space.shape[0] + env.agents_per_world
-            if args.critic == "state"
-            else 0,
-            memory=args.memory,
-            memory_size=args.memory_size,
-            frames=args.frames,
+            env.single_observation_space, env.single_action_space, **network_options(args, env)
         )
         self.optimizer = torch.optim.Adam(
             agent.parameters(), lr=args.learning_rate, eps=1e-5, fused=True

@@ -138,6 +138,12 @@ class Args:
     anchor_fade: float = 0.0
     """The fraction of the run's updates over which the anchor's weight falls linearly to
     0; 0: held throughout."""
+    role_networks: bool = False
+    """A network for each role (agents whose observations differ: ``plate_relay``'s scout
+    and runner, ``signal_rooms``' guide and seeker), in one module whose every row is
+    read by its own role's part alone (``flatland_ma.policies.roles``): the roles share
+    no parameters. Off: one network for every agent, told the role by the padded
+    observation. Feed-forward only."""
     memory: Literal["none", "gru"] = "none"
     """The policy's recurrent core: "gru", a one-layer GRU of ``memory_size`` units after
     the fully connected layer, its state carried through each episode and trained on whole

@@ -90,6 +90,8 @@ Hidden = Annotated[int, Field(ge=1, le=4096)]
 MAX_FRAMES = 64
 """The most observations a network may read at once (``frames``)."""
 Channels = Annotated[int, Field(ge=1, le=64)]
+MAX_ROLES = 64
+"""The most roles a network may have a part for (each costs a whole network's work)."""
 
 
 class PPOArguments(_Strict):
@@ -103,6 +105,8 @@ class PPOArguments(_Strict):
     """The recurrent core's units (read only with a core)."""
     frames: Annotated[int, Field(ge=1, le=MAX_FRAMES)] = 1
     """How many of the last observations the network reads (before it: one)."""
+    roles: Annotated[int, Field(ge=0, le=MAX_ROLES)] = 0
+    """Networks, one per role of a padded observation (before it: 0, one for all)."""
 
 
 class A3CArguments(_Strict):

@@ -15,7 +15,9 @@ PPO's sampling and value to ``PPONetwork``; ``baselines.a3c`` trains ``ActorCrit
   ``frames: K`` each entry is read as its last K observations (joined along its channels,
   as the Nature DQN's frame stack); with ``memory: "gru"`` a one-layer GRU of ``memory_size``
   units follows the fully connected layer, and the heads read its state
-  (``policies.memory`` keeps both between steps).
+  (``policies.memory`` keeps both between steps). With ``roles: R`` (a padded observation
+  of R roles) each role has encoders and a fully connected layer of its own, and a row's
+  action and value depend on its own role's alone (``policies.roles``).
 - ``a3c``, ``ActorCritic``: the paper's A3C network, Conv1D(32, 8) - Conv1D(48, 4) -
   Conv1D(64, 3) - Dense(hidden), ELU, then the policy's logits and the value.
 
@@ -32,6 +34,7 @@ from collections.abc import Mapping, Sequence
 import torch
 from torch import nn
 
+from flatland_ma.envs.padding import ROLE
 from flatland_ma.policies.encoders import (
     CONV_CHANNELS,
     CONV_KERNELS,
@@ -48,6 +51,7 @@ from flatland_ma.policies.encoders import (
     trunk_length,
 )
 from flatland_ma.policies.memory import MEMORIES, Memory, each, restart, stack_frames
+from flatland_ma.policies.roles import RoleBody, RoleStack, check_roles
 
 __all__ = [
     "BOX",
@@ -102,8 +106,11 @@ class PPONetwork(nn.Module):
         memory: str = "none",
         memory_size: int = 128,
         frames: int = 1,
+        roles: int = 0,
     ):
         super().__init__()
+        if roles:
+            check_roles(entries, roles, memory, frames)
         if memory not in MEMORIES:
             raise ValueError(f"memory {memory!r}: one of {', '.join(MEMORIES)}")
         if frames < 1 or memory_size < 1:
@@ -111,14 +118,21 @@ class PPONetwork(nn.Module):
         self.dict_input = list(entries) != [BOX]
         self.hidden, self.channels, self.network = hidden, channels, network
         self.memory, self.memory_size, self.frames = memory, memory_size, frames
+        self.roles = roles
+        """Networks, one per role (0: one for every agent)."""
+
+        def encoder(key: str, shape: Sequence[int]) -> nn.Module:
+            if not roles or key == ROLE:
+                return entry_input(key, shape, channels, network, frames)
+            return RoleStack([entry_input(key, shape, channels, network) for _ in range(roles)])
+
         self.inputs = nn.ModuleDict(
-            {
-                key or "observation": entry_input(key, shape, channels, network, frames)
-                for key, shape in entries.items()
-            }
+            {key or "observation": encoder(key, shape) for key, shape in entries.items()}
         )
         features = sum(int(module.features) for module in self.inputs.values())  # type: ignore[arg-type]
-        self.body = nn.Sequential(nn.Linear(features, hidden), nn.ReLU())
+        stacks = {k: m for k, m in self.inputs.items() if isinstance(m, RoleStack)}
+        body = RoleBody(stacks, roles, hidden) if roles else None
+        self.body = body or nn.Sequential(nn.Linear(features, hidden), nn.ReLU())
         for layer in [*self.inputs.modules(), *self.body.modules()]:
             if isinstance(layer, (nn.Conv1d, nn.Conv2d, nn.Linear)):
                 layer_init(layer)
@@ -130,9 +144,12 @@ class PPONetwork(nn.Module):
                 init = nn.init.orthogonal_ if name.startswith("weight") else nn.init.zeros_
                 init(parameter)
         width = memory_size if self.core is not None else hidden
+        if body is not None:
+            width = body.width
         """The width of what the heads read."""
         self.sizes = tuple(int(n) for n in sizes)
-        self.actor = layer_init(nn.Linear(width, sum(self.sizes)), std=0.01)
+        bias = not roles  # with roles, the heads read each role's one-hot: its own bias
+        self.actor = layer_init(nn.Linear(width, sum(self.sizes), bias=bias), std=0.01)
         self.state_size = state_size
         """The length of the centralised critic's input; 0: the value reads the features."""
         if state_size:
@@ -144,7 +161,7 @@ class PPONetwork(nn.Module):
                 layer_init(nn.Linear(hidden, 1), std=1.0),
             )
         else:
-            self.critic = layer_init(nn.Linear(width, 1), std=1.0)
+            self.critic = layer_init(nn.Linear(width, 1, bias=bias), std=1.0)
 
     def arguments(self) -> dict:
         """The constructor's arguments besides the spaces, as a checkpoint records them."""
@@ -156,6 +173,7 @@ class PPONetwork(nn.Module):
             "memory": self.memory,
             "memory_size": self.memory_size,
             "frames": self.frames,
+            "roles": self.roles,
         }
 
     @property
@@ -174,6 +192,8 @@ class PPONetwork(nn.Module):
 
     def join(self, encodings: dict[str, torch.Tensor]) -> torch.Tensor:
         """What the heads read, from the entries' ``encodings``."""
+        if self.roles:
+            return self.body(encodings)
         parts = list(encodings.values())
         return self.body(torch.cat(parts, dim=1) if len(parts) > 1 else parts[0])
 

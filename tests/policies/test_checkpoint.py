@@ -82,6 +82,7 @@ def _ppo_cases():
         "paper_trunk_with_depth": (fruits, None, {"network": "paper", "channels": 4}),
         "dict_multidiscrete": (maps, None, {}),
         "padded_roles": (relay, Padding.of(relay), {}),
+        "a_network_for_each_role": (relay, Padding.of(relay), {"roles": 2}),
         "centralised_critic": (carry, None, {"state_size": 40}),
     }
 
