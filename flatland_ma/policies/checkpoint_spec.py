@@ -8,8 +8,8 @@ The description (the safetensors file's ``__metadata__["flatland_ma"]``) holds::
     spaces: {observation: Box | Dict of Box, action: Discrete | MultiDiscrete}   as JSON
     action_sizes                                the choices of each action component
     network: {kind: "ppo" | "a3c", arguments: {...}}   rebuilt by policies.networks
-                                                (ppo's memory and frames default to
-                                                none and 1, as before they existed)
+                                                (ppo's memory, frames and roles default
+                                                to none, 1 and 0, as before they existed)
     padded, trained_with, overrides, algorithm, args, update, agent_steps   (optional)
     optimizer                                   the trainer's optimiser state (optional)
 
