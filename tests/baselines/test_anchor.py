@@ -16,20 +16,11 @@ pytest.importorskip("safetensors")
 
 from baselines import ppo  # noqa: E402
 from baselines.anchor import Anchor, anchor, divergence  # noqa: E402
+from tests.ppo_helpers import tiny_args  # noqa: E402
 
 
 def _args(folder: Path, **options) -> ppo.Args:
-    base = ppo.Args(
-        scenario="fruits_poisons",
-        num_envs=2,
-        num_steps=32,
-        total_timesteps=64,
-        checkpoint_every=0,
-        tensorboard=False,
-        hidden=32,
-        csv=str(folder / "seed_0.csv"),
-    )
-    return replace(base, **options)
+    return tiny_args(folder, **{"num_envs": 2, **options})
 
 
 def _kl(p, q) -> float:

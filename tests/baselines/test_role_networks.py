@@ -5,7 +5,6 @@ it cannot serve are refused."""
 
 from __future__ import annotations
 
-from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -16,24 +15,15 @@ pytest.importorskip("safetensors")
 from baselines import ppo  # noqa: E402
 from flatland_ma.policies.networks import PPONetwork  # noqa: E402
 from flatland_ma.policies.roles import RoleBody, RoleStack  # noqa: E402
+from tests.ppo_helpers import tiny_args  # noqa: E402
 
 
 def _args(folder: Path, **options) -> ppo.Args:
-    base = ppo.Args(
-        scenario="signal_rooms",
-        num_envs=2,
-        num_steps=16,
-        total_timesteps=64,
-        checkpoint_every=0,
-        tensorboard=False,
-        hidden=16,
-        role_networks=True,
-        csv=str(folder / "seed_0.csv"),
-    )
-    return replace(base, **options)
+    base = {"scenario": "signal_rooms", "num_envs": 2, "num_steps": 16, "hidden": 16}
+    return tiny_args(folder, **{**base, "role_networks": True, **options})
 
 
-def _part(network: PPONetwork, role: int) -> dict[str, torch.Tensor]:
+def _part(network: PPONetwork, role: int) -> dict:
     """The parameters of one role's part: its encoders and layer, and its columns of the
     heads (its block of features and its bias column)."""
     out = {}
@@ -86,7 +76,7 @@ def test_gradients_of_one_roles_rows_reach_only_its_part(run):
     rows = role == 0
     (logprob[rows].sum() + entropy[rows].sum() + value[rows].square().sum()).backward()
 
-    def grad(name: str, p: torch.Tensor, of: int) -> torch.Tensor:
+    def grad(name: str, p, of: int):
         if name.split(".")[0] in ("actor", "critic"):
             return _head_grad(agent, name, of)
         return torch.zeros_like(p) if p.grad is None else p.grad
@@ -99,7 +89,7 @@ def test_gradients_of_one_roles_rows_reach_only_its_part(run):
     agent.zero_grad()
 
 
-def _head_grad(agent: PPONetwork, name: str, role: int) -> torch.Tensor:
+def _head_grad(agent: PPONetwork, name: str, role: int):
     head, which = name.split(".")
     grad = getattr(agent, head).weight.grad
     hidden, roles = agent.hidden, agent.roles
@@ -119,7 +109,9 @@ def test_a_stage_that_trains_one_role_leaves_the_others_part_as_it_was(tmp_path)
     training = ppo.Training(args)
     try:
         seeker = training.env.spec.agent_names.index("seeker_0")
-        role = training.env.padding.role_of[seeker]
+        padding = training.env.padding
+        assert padding is not None
+        role = padding.role_of[seeker]
         start = {k: p.detach().clone() for k, p in _part(training.agent, role).items()}
         guide = {k: p.detach().clone() for k, p in _part(training.agent, 1 - role).items()}
         for iteration in range(1, training.iterations + 1):
