@@ -120,22 +120,7 @@ class PPONetwork(nn.Module):
         self.memory, self.memory_size, self.frames = memory, memory_size, frames
         self.roles = roles
         """Networks, one per role (0: one for every agent)."""
-
-        def encoder(key: str, shape: Sequence[int]) -> nn.Module:
-            if not roles or key == ROLE:
-                return entry_input(key, shape, channels, network, frames)
-            return RoleStack([entry_input(key, shape, channels, network) for _ in range(roles)])
-
-        self.inputs = nn.ModuleDict(
-            {key or "observation": encoder(key, shape) for key, shape in entries.items()}
-        )
-        features = sum(int(module.features) for module in self.inputs.values())  # type: ignore[arg-type]
-        stacks = {k: m for k, m in self.inputs.items() if isinstance(m, RoleStack)}
-        body = RoleBody(stacks, roles, hidden) if roles else None
-        self.body = body or nn.Sequential(nn.Linear(features, hidden), nn.ReLU())
-        for layer in [*self.inputs.modules(), *self.body.modules()]:
-            if isinstance(layer, (nn.Conv1d, nn.Conv2d, nn.Linear)):
-                layer_init(layer)
+        self.inputs, self.body = _trunk(entries, channels, network, frames, roles, hidden)
         self.core = nn.GRU(hidden, memory_size) if memory == "gru" else None
         """The recurrent core (one layer), or None; orthogonal weights and zero biases (as
         CleanRL's LSTM)."""
@@ -144,24 +129,15 @@ class PPONetwork(nn.Module):
                 init = nn.init.orthogonal_ if name.startswith("weight") else nn.init.zeros_
                 init(parameter)
         width = memory_size if self.core is not None else hidden
-        if body is not None:
-            width = body.width
+        if isinstance(self.body, RoleBody):
+            width = self.body.width
         """The width of what the heads read."""
         self.sizes = tuple(int(n) for n in sizes)
         bias = not roles  # with roles, the heads read each role's one-hot: its own bias
         self.actor = layer_init(nn.Linear(width, sum(self.sizes), bias=bias), std=0.01)
         self.state_size = state_size
         """The length of the centralised critic's input; 0: the value reads the features."""
-        if state_size:
-            self.critic = nn.Sequential(
-                layer_init(nn.Linear(state_size, hidden)),
-                nn.ReLU(),
-                layer_init(nn.Linear(hidden, hidden)),
-                nn.ReLU(),
-                layer_init(nn.Linear(hidden, 1), std=1.0),
-            )
-        else:
-            self.critic = layer_init(nn.Linear(width, 1, bias=bias), std=1.0)
+        self.critic = _critic(state_size, hidden, width, bias)
 
     def arguments(self) -> dict:
         """The constructor's arguments besides the spaces, as a checkpoint records them."""
@@ -243,6 +219,49 @@ class PPONetwork(nn.Module):
 
     def logits(self, observation) -> torch.Tensor:
         return self(observation)
+
+
+def _trunk(
+    entries: Mapping[str, Sequence[int]],
+    channels: int,
+    network: str,
+    frames: int,
+    roles: int,
+    hidden: int,
+) -> tuple[nn.ModuleDict, nn.Module]:
+    """``PPONetwork``'s encoders (by entry) and fully connected layer, initialised: one
+    for every agent, or with ``roles`` one per role (``policies.roles``)."""
+
+    def encoder(key: str, shape: Sequence[int]) -> nn.Module:
+        if not roles or key == ROLE:
+            return entry_input(key, shape, channels, network, frames)
+        return RoleStack([entry_input(key, shape, channels, network) for _ in range(roles)])
+
+    inputs = nn.ModuleDict(
+        {key or "observation": encoder(key, shape) for key, shape in entries.items()}
+    )
+    features = sum(int(module.features) for module in inputs.values())  # type: ignore[arg-type]
+    stacks = {k: m for k, m in inputs.items() if isinstance(m, RoleStack)}
+    body = RoleBody(stacks, roles, hidden) if roles else None
+    body = body or nn.Sequential(nn.Linear(features, hidden), nn.ReLU())
+    for layer in [*inputs.modules(), *body.modules()]:
+        if isinstance(layer, (nn.Conv1d, nn.Conv2d, nn.Linear)):
+            layer_init(layer)
+    return inputs, body
+
+
+def _critic(state_size: int, hidden: int, width: int, bias: bool) -> nn.Module:
+    """The value's head: on ``width`` features, or a centralised critic of its own on a
+    global state of ``state_size`` (two layers of ``hidden`` units)."""
+    if not state_size:
+        return layer_init(nn.Linear(width, 1, bias=bias), std=1.0)
+    return nn.Sequential(
+        layer_init(nn.Linear(state_size, hidden)),
+        nn.ReLU(),
+        layer_init(nn.Linear(hidden, hidden)),
+        nn.ReLU(),
+        layer_init(nn.Linear(hidden, 1), std=1.0),
+    )
 
 
 class ActorCritic(nn.Module):
