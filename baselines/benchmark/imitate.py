@@ -82,6 +82,9 @@ class Args:
     task's standard configuration with its curriculum left out, and score it too (0: no
     PPO). The imitator's network takes that configuration's ``hidden``, ``network`` and
     ``use_depth`` either way, so that PPO can start from it."""
+    ppo_anchor: float = 0.0
+    """With ``ppo_steps``: ``baselines.ppo``'s ``--anchor``, a pull towards the imitator's
+    policy (``baselines.anchor``), which PPO's updates otherwise undo; 0: none."""
     memory: Literal["none", "gru"] = "none"
     """The network's recurrent core, as ``baselines.ppo``'s ``--memory``: "gru" plays and
     learns slot by slot from sequences (``imitate_rounds``); PPO from it has it too."""
@@ -211,6 +214,7 @@ def standard_args(args: Args, log: Path = Path("-"), start: Path | None = None):
         checkpoint_every=0,
         init_from="" if start is None else str(start),
         memory=args.memory,
+        anchor=args.ppo_anchor,
     )
 
 

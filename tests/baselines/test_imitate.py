@@ -125,6 +125,13 @@ def test_ppo_goes_on_from_the_imitator_in_the_tasks_standard_configuration(tmp_p
     assert len(then["held_out_episodes"]) == 10
 
 
+def test_ppo_from_the_imitator_may_be_pulled_towards_it(tmp_path):
+    args = imitate.Args(scenario="fruits_poisons", ppo_steps=4096, ppo_anchor=0.1)
+    run = imitate.standard_args(args, tmp_path / "log.csv", tmp_path / "imitator.safetensors")
+    assert run.anchor == 0.1 and run.init_from == str(tmp_path / "imitator.safetensors")
+    assert imitate.standard_args(imitate.Args(scenario="fruits_poisons")).anchor == 0.0
+
+
 def test_a_scenario_without_a_solver_is_refused(tmp_path):
     scenario = tmp_path / "plain.yaml"
     scenario.write_text("arena: {size: [200, 200]}\n")
