@@ -13,6 +13,7 @@ from baselines import ppo  # noqa: E402
 from baselines.benchmark import listening  # noqa: E402
 from flatland_ma.envs.parallel import FlatlandParallelEnv  # noqa: E402
 from flatland_ma.policies.signals import Follower, Signaller  # noqa: E402
+from tests.ppo_helpers import tiny_args  # noqa: E402
 
 
 def test_the_guides_words_and_a_listening_seeker_beside_them():
@@ -36,17 +37,7 @@ def test_the_guides_words_and_a_listening_seeker_beside_them():
 
 
 def test_a_checkpoints_pair_is_checked_beside_every_guide(tmp_path):
-    args = ppo.Args(
-        scenario="signal_rooms",
-        num_envs=1,
-        num_steps=32,
-        total_timesteps=64,
-        checkpoint_every=0,
-        tensorboard=False,
-        hidden=16,
-        csv=str(tmp_path / "seed_0.csv"),
-    )
-    ppo.main(args)
+    ppo.main(tiny_args(tmp_path, scenario="signal_rooms", hidden=16))
     figures = listening.check(str(tmp_path / "seed_0.safetensors"), episodes=2)
     assert list(figures) == [
         "its own guide",
