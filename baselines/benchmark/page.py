@@ -307,6 +307,13 @@ def measured_text(summary: dict) -> list[str]:
     ]
 
 
+def listed_with_results(rows: list[dict]) -> str:
+    """How many of a tier's listed tasks (``learner``) have PPO results, of how many: a
+    task run at the tier before it left the list is not one of them."""
+    done = sum(r["ppo"] is not None and r["learner"] for r in rows)
+    return f"{done} of {sum(r['learner'] for r in rows)}"
+
+
 def tiers_text(summary: dict) -> list[str]:
     """The tiers side by side, the reference methods' CPU time, and their table."""
     tiers = summary["tiers"]
@@ -322,8 +329,7 @@ def tiers_text(summary: dict) -> list[str]:
                     t["tier"],
                     f"{t['budget']:,}",
                     str(t["seeds"]),
-                    f"{sum(r['ppo'] is not None for r in t['rows'])} of "
-                    f"{sum(r['learner'] for r in t['rows'])}",
+                    listed_with_results(t["rows"]),
                     figure_text(t["aggregate"]) or "-",
                     str(t["half"]),
                     f"{t['ppo_seconds'] / 3600:.2f}",

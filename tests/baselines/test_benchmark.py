@@ -17,7 +17,7 @@ pytest.importorskip("tyro")
 
 from baselines.benchmark import play  # noqa: E402
 from baselines.benchmark.levels import LEVELS_OUT, read_levels, record, render_levels  # noqa: E402
-from baselines.benchmark.page import render  # noqa: E402
+from baselines.benchmark.page import listed_with_results, render  # noqa: E402
 from baselines.benchmark.records import OUT, result_path, write_record  # noqa: E402
 from baselines.benchmark.runs import run  # noqa: E402
 from baselines.benchmark.settings import ROOT, SETTINGS, BenchmarkConfig, load_config  # noqa: E402
@@ -687,3 +687,14 @@ def test_a_tier_is_priced_at_each_tasks_own_rate_from_any_tier():
         "left": round(500 / 3600, 4),
     }
     assert planned_hours(rows, 3, {}, None) is None
+
+
+def test_a_tier_counts_the_tasks_of_its_list_that_have_results():
+    """A task run at a tier it has since left (a seed kept, not on the tier's list) is not
+    counted among the list's tasks with results."""
+    rows = [
+        {"ppo": 1.0, "learner": True},
+        {"ppo": 1.0, "learner": False},
+        {"ppo": None, "learner": True},
+    ]
+    assert listed_with_results(rows) == "1 of 2"
