@@ -90,9 +90,7 @@ def anchor(args, agent, iterations: int, resumed=None) -> Anchor | None:
         raise ValueError("--anchor is not combined with --listening or --signalling")
     reference = copy.deepcopy(agent)
     start_from(reference, args.init_from)
-    fade = round(args.anchor_fade * iterations)
-    if args.anchor_fade and fade < 1:
-        fade = 1
+    fade = max(1, round(args.anchor_fade * iterations)) if args.anchor_fade else 0
     done = 0 if resumed is None else resumed.update
     calls = args.update_epochs * args.num_minibatches
     return Anchor(reference, args.anchor, fade, calls, done)

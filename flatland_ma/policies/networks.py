@@ -129,9 +129,10 @@ class PPONetwork(nn.Module):
                 init = nn.init.orthogonal_ if name.startswith("weight") else nn.init.zeros_
                 init(parameter)
         width = memory_size if self.core is not None else hidden
+        """The width of what the heads read (with roles, every role's features and the
+        one-hot)."""
         if isinstance(self.body, RoleBody):
             width = self.body.width
-        """The width of what the heads read."""
         self.sizes = tuple(int(n) for n in sizes)
         bias = not roles  # with roles, the heads read each role's one-hot: its own bias
         self.actor = layer_init(nn.Linear(width, sum(self.sizes), bias=bias), std=0.01)
